@@ -1,0 +1,62 @@
+//! `clothcast run`: every stage that exists, every output, summary.json.
+
+use crate::args::RunArgs;
+use crate::commands::resolve_scenario;
+use crate::failure::{Blame, Failure};
+use crate::input;
+use crate::progress::Progress;
+use crate::summary::{StageTime, Stages, Summary};
+use anyhow::Context;
+use clothcast_mesh::io::write_atomic;
+use std::time::Instant;
+
+/// Run the pipeline.
+pub fn run(args: &RunArgs, progress: &Progress) -> Result<(), Failure> {
+    let t0 = Instant::now();
+    let (cfg, repair) = resolve_scenario(args)?;
+    let mut stages = Stages::default();
+
+    let stage = progress.stage("loading mesh");
+    let input = input::load(&cfg, &repair)?;
+    stages.input = Some(StageTime { seconds: stage.seconds() });
+    drop(stage);
+    let m = &input.mesh;
+    progress.say(format!(
+        "input: {} ({} vertices, {} faces, genus {}, {} boundary loop(s), {:.3} m tall, area {:.4} m²)",
+        input.label,
+        m.n_vertices(),
+        m.n_faces(),
+        m.genus(),
+        m.boundary_loops().len(),
+        {
+            let up = input.up;
+            let (lo, hi) = m
+                .positions()
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.dot(&up)), h.max(p.dot(&up))));
+            hi - lo
+        },
+        m.total_area()
+    ));
+    for line in input.repairs.lines() {
+        progress.say(format!("repair: {line}"));
+    }
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))
+        .internal()?;
+    let summary = Summary {
+        version: env!("CARGO_PKG_VERSION"),
+        input: input.summary(),
+        scenario: cfg,
+        stages,
+        seconds_total: t0.elapsed().as_secs_f64(),
+    };
+    let path = args.out.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary).internal()?;
+    write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))
+        .with_context(|| format!("cannot write {}", path.display()))
+        .internal()?;
+    progress.say(format!("wrote {}", path.display()));
+    Ok(())
+}

@@ -1,0 +1,481 @@
+//! The scenario file (TOML): one scenario per file, strict (unknown keys and wrong types are
+//! errors naming the key and line), every key documented in [`TEMPLATE`], which `clothcast
+//! config` prints and which a test keeps equal to [`Config::default`].
+//!
+//! Section and key names are part of the interface: extend them, never rename them.
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::path::{Path, PathBuf};
+
+/// The commented default configuration printed by `clothcast config`.
+pub const TEMPLATE: &str = include_str!("default_config.toml");
+
+/// A whole scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// Seed of every random choice (segmentation tracing order). Same seed, same outputs.
+    pub seed: u64,
+    /// Input mesh and its placement.
+    pub mesh: MeshSection,
+    /// Fabric material.
+    pub material: MaterialSection,
+    /// Liquid infill.
+    pub infill: InfillSection,
+    /// How the mold hangs.
+    pub suspension: SuspensionSection,
+    /// Rigid planes the fabric rests on.
+    pub supports: Vec<Support>,
+    /// Static equilibrium solver.
+    pub solver: SolverSection,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            mesh: MeshSection::default(),
+            material: MaterialSection::default(),
+            infill: InfillSection::default(),
+            suspension: SuspensionSection::default(),
+            supports: Vec::new(),
+            solver: SolverSection::default(),
+        }
+    }
+}
+
+/// `[mesh]`
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MeshSection {
+    /// Mesh file (relative paths are relative to the config file). None: the built-in example.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// Units of the file's coordinates.
+    pub units: Units,
+    /// Rescale so the extent along `up` is this many metres (overrides `units`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub height: Option<f64>,
+    /// The suspension direction: up when the mold hangs.
+    pub up: Up,
+}
+
+impl Default for MeshSection {
+    fn default() -> Self {
+        Self { path: None, units: Units::M, height: None, up: Up::axis(2, 1.0) }
+    }
+}
+
+/// Length units of an input file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// Metres.
+    M,
+    /// Centimetres.
+    Cm,
+    /// Millimetres.
+    Mm,
+}
+
+impl Units {
+    /// Metres per unit.
+    pub fn to_metres(self) -> f64 {
+        match self {
+            Units::M => 1.0,
+            Units::Cm => 0.01,
+            Units::Mm => 0.001,
+        }
+    }
+}
+
+/// A direction: an axis name ("+z", "-y", ...) or an explicit vector [x, y, z].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Up(pub [f64; 3]);
+
+impl Up {
+    fn axis(i: usize, s: f64) -> Self {
+        let mut v = [0.0; 3];
+        v[i] = s;
+        Up(v)
+    }
+    /// Unit vector.
+    pub fn unit(&self) -> [f64; 3] {
+        let n = (self.0[0].powi(2) + self.0[1].powi(2) + self.0[2].powi(2)).sqrt();
+        self.0.map(|c| c / n)
+    }
+    /// Parse "+x" / "-z" / "x" style names.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let t = s.trim();
+        let (sign, name) = match t.as_bytes().first() {
+            Some(b'+') => (1.0, &t[1..]),
+            Some(b'-') => (-1.0, &t[1..]),
+            _ => (1.0, t),
+        };
+        let i = match name {
+            "x" | "X" => 0,
+            "y" | "Y" => 1,
+            "z" | "Z" => 2,
+            _ => return Err(format!("invalid direction {s:?}: use +x, -x, +y, -y, +z, -z or [x, y, z]")),
+        };
+        Ok(Up::axis(i, sign))
+    }
+}
+
+impl Serialize for Up {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let v = self.0;
+        let nz: Vec<usize> = (0..3).filter(|&i| v[i] != 0.0).collect();
+        if nz.len() == 1 && v[nz[0]].abs() == 1.0 {
+            let sign = if v[nz[0]] > 0.0 { '+' } else { '-' };
+            s.serialize_str(&format!("{sign}{}", ["x", "y", "z"][nz[0]]))
+        } else {
+            v.serialize(s)
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Up {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Name(String),
+            Vector([f64; 3]),
+        }
+        match Raw::deserialize(d)
+            .map_err(|_| serde::de::Error::custom("expected an axis such as \"+z\" or a vector [x, y, z]"))?
+        {
+            Raw::Name(s) => Up::parse(&s).map_err(serde::de::Error::custom),
+            Raw::Vector(v) => {
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if !(n > 0.0 && n.is_finite()) {
+                    return Err(serde::de::Error::custom("the up vector must be finite and non-zero"));
+                }
+                Ok(Up(v))
+            }
+        }
+    }
+}
+
+/// `[material]`: the isotropic fabric (project convention: thickness-integrated Young's
+/// modulus Y in N/m and Poisson ratio ν; shear modulus G = Y / (2(1 + ν))).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MaterialSection {
+    /// Y (N/m).
+    pub youngs_modulus: f64,
+    /// ν.
+    pub poisson_ratio: f64,
+    /// Fabric mass per area (kg/m²).
+    pub areal_density: f64,
+    /// Include the fabric's own weight in the load.
+    pub self_weight: bool,
+}
+
+impl Default for MaterialSection {
+    fn default() -> Self {
+        Self { youngs_modulus: 50_000.0, poisson_ratio: 0.3, areal_density: 0.25, self_weight: false }
+    }
+}
+
+/// `[infill]`: the liquid cast.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InfillSection {
+    /// Density (kg/m³); 1460 is liquid plaster as in the paper.
+    pub density: f64,
+    /// "top" or the fill height in metres above the mold's lowest point, along `up`.
+    pub fill_level: FillLevel,
+    /// Extra uniform pressure (Pa), e.g. from a pressure head above the mold.
+    pub head_pressure: f64,
+}
+
+impl Default for InfillSection {
+    fn default() -> Self {
+        Self { density: 1460.0, fill_level: FillLevel::Top, head_pressure: 0.0 }
+    }
+}
+
+/// Fill level of the liquid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FillLevel {
+    /// Full to the top of the mold.
+    Top,
+    /// Metres above the lowest point, along `up`.
+    Height(f64),
+}
+
+impl Serialize for FillLevel {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            FillLevel::Top => s.serialize_str("top"),
+            FillLevel::Height(h) => s.serialize_f64(*h),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FillLevel {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Name(String),
+            Float(f64),
+            Int(i64),
+        }
+        match Raw::deserialize(d).map_err(|_| serde::de::Error::custom("expected \"top\" or a height in metres"))? {
+            Raw::Name(s) if s == "top" => Ok(FillLevel::Top),
+            Raw::Name(s) => {
+                Err(serde::de::Error::custom(format!("expected \"top\" or a height in metres, found {s:?}")))
+            }
+            Raw::Float(h) => Ok(FillLevel::Height(h)),
+            Raw::Int(h) => Ok(FillLevel::Height(h as f64)),
+        }
+    }
+}
+
+/// `[suspension]`
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SuspensionSection {
+    /// How the mold is held.
+    pub mode: SuspensionMode,
+    /// For `top-band`: clamp every vertex within this many metres of the top (along `up`).
+    pub band: f64,
+    /// For `vertices`: the clamped vertices (0-based ids of the input file).
+    pub vertices: Vec<u32>,
+}
+
+impl Default for SuspensionSection {
+    fn default() -> Self {
+        Self { mode: SuspensionMode::TopBand, band: 0.02, vertices: Vec::new() }
+    }
+}
+
+/// How the mold is held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SuspensionMode {
+    /// Clamp the vertices within `band` of the top.
+    TopBand,
+    /// Clamp the listed vertices.
+    Vertices,
+    /// Clamp every boundary loop (open molds).
+    Boundary,
+    /// Nothing clamped (self-equilibrated loads only; rigid motions are removed).
+    None,
+}
+
+/// `[[supports]]`: a rigid plane the fabric cannot pass.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Support {
+    /// A point on the plane (metres, mesh frame after scaling).
+    pub point: [f64; 3],
+    /// Normal pointing to the side where the fabric is.
+    pub normal: [f64; 3],
+}
+
+/// `[solver]`
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSection {
+    /// Converged when the residual force is below this fraction of the load.
+    pub tolerance: f64,
+    /// Newton iterations allowed (over all load steps).
+    pub max_iterations: usize,
+    /// Continue after a non-converged solve (marked in the summary).
+    pub allow_unconverged: bool,
+}
+
+impl Default for SolverSection {
+    fn default() -> Self {
+        Self { tolerance: 1e-8, max_iterations: 200, allow_unconverged: false }
+    }
+}
+
+/// A configuration error naming the key and, when known, the line.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// Could not read the file.
+    #[error("cannot read config {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// OS error.
+        source: std::io::Error,
+    },
+    /// TOML syntax, unknown key, wrong type.
+    #[error("config {path}: {message}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// toml's message (with line and column).
+        message: String,
+    },
+    /// A value out of its range.
+    #[error("config {path}{}: `{key}` = {value}: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Value {
+        /// The file.
+        path: String,
+        /// 1-based line, when found.
+        line: Option<usize>,
+        /// Dotted key.
+        key: String,
+        /// The value as written.
+        value: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl Config {
+    /// Parse and check a configuration text.
+    pub fn from_toml(text: &str, path: &str) -> Result<Self, ConfigError> {
+        let cfg: Config = toml::from_str(text)
+            .map_err(|e| ConfigError::Parse { path: path.into(), message: e.to_string().trim_end().to_string() })?;
+        cfg.check(Some(text), path)?;
+        Ok(cfg)
+    }
+
+    /// Read a configuration file; a relative `[mesh] path` is made relative to the file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: path.into(), source })?;
+        let mut cfg = Self::from_toml(&text, &path.display().to_string())?;
+        if let Some(p) = &cfg.mesh.path
+            && p.is_relative()
+        {
+            cfg.mesh.path = Some(path.parent().unwrap_or(Path::new(".")).join(p));
+        }
+        Ok(cfg)
+    }
+
+    /// Range checks; `source` (the TOML text) lets errors name the line.
+    pub fn check(&self, source: Option<&str>, path: &str) -> Result<(), ConfigError> {
+        let err = |section: &str, key: &str, value: String, reason: &str| ConfigError::Value {
+            path: path.into(),
+            line: source.and_then(|s| locate_key(s, section, key)),
+            key: if section.is_empty() { key.into() } else { format!("{section}.{key}") },
+            value,
+            reason: reason.into(),
+        };
+        let positive = |section: &str, key: &str, v: f64| {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(err(section, key, v.to_string(), "must be a positive number"))
+            }
+        };
+        let non_negative = |section: &str, key: &str, v: f64| {
+            if v >= 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(err(section, key, v.to_string(), "must be zero or positive"))
+            }
+        };
+        if let Some(h) = self.mesh.height {
+            positive("mesh", "height", h)?;
+        }
+        positive("material", "youngs_modulus", self.material.youngs_modulus)?;
+        let nu = self.material.poisson_ratio;
+        if !(nu > -1.0 && nu < 1.0) {
+            return Err(err(
+                "material",
+                "poisson_ratio",
+                nu.to_string(),
+                "must lie in (-1, 1) for a plane-stress membrane",
+            ));
+        }
+        non_negative("material", "areal_density", self.material.areal_density)?;
+        non_negative("infill", "density", self.infill.density)?;
+        if let FillLevel::Height(h) = self.infill.fill_level {
+            non_negative("infill", "fill_level", h)?;
+        }
+        if !self.infill.head_pressure.is_finite() {
+            return Err(err("infill", "head_pressure", self.infill.head_pressure.to_string(), "must be finite"));
+        }
+        positive("suspension", "band", self.suspension.band)?;
+        if self.suspension.mode == SuspensionMode::Vertices && self.suspension.vertices.is_empty() {
+            return Err(err("suspension", "vertices", "[]".into(), "mode = \"vertices\" needs at least one vertex"));
+        }
+        for (i, s) in self.supports.iter().enumerate() {
+            let n = s.normal.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if !(n > 0.0 && n.is_finite()) || s.point.iter().any(|c| !c.is_finite()) {
+                return Err(err(
+                    "supports",
+                    "normal",
+                    format!("{:?} (support {i})", s.normal),
+                    "point must be finite and normal non-zero",
+                ));
+            }
+        }
+        if !(self.solver.tolerance > 0.0 && self.solver.tolerance < 1.0) {
+            return Err(err("solver", "tolerance", self.solver.tolerance.to_string(), "must lie in (0, 1)"));
+        }
+        if self.solver.max_iterations == 0 {
+            return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+/// 1-based line of `key = ...` inside `[section]` (or `[[section]]`) of a TOML text.
+fn locate_key(text: &str, section: &str, key: &str) -> Option<usize> {
+    let mut current = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(h) = t.strip_prefix('[') {
+            current = h.trim_start_matches('[').split(']').next().unwrap_or("").trim().to_string();
+            continue;
+        }
+        if current == section
+            && let Some(rest) = t.strip_prefix(key)
+            && rest.trim_start().starts_with('=')
+        {
+            return Some(i + 1);
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn template_is_the_default() {
+        let cfg = Config::from_toml(TEMPLATE, "template").unwrap();
+        assert_eq!(cfg, Config::default());
+    }
+
+    #[test]
+    fn unknown_key_names_key_and_line() {
+        let e = Config::from_toml("[material]\nyoungs_modulu = 5\n", "c.toml").unwrap_err().to_string();
+        assert!(e.contains("youngs_modulu") && e.contains("line 2"), "{e}");
+        let e = Config::from_toml("[infill]\ndensity = \"heavy\"\n", "c.toml").unwrap_err().to_string();
+        assert!(e.contains("density") && e.contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn range_errors_name_key_and_line() {
+        let e =
+            Config::from_toml("seed = 3\n[material]\n# c\npoisson_ratio = 1.5\n", "c.toml").unwrap_err().to_string();
+        assert!(e.contains("c.toml:4") && e.contains("material.poisson_ratio"), "{e}");
+    }
+
+    #[test]
+    fn up_and_fill_level_forms() {
+        let c = Config::from_toml("[mesh]\nup = \"-y\"\n[infill]\nfill_level = 0.3\n", "c").unwrap();
+        assert_eq!(c.mesh.up, Up([0.0, -1.0, 0.0]));
+        assert_eq!(c.infill.fill_level, FillLevel::Height(0.3));
+        let c = Config::from_toml("[mesh]\nup = [0, 1, 1]\n[infill]\nfill_level = 1\n", "c").unwrap();
+        assert_eq!(c.mesh.up, Up([0.0, 1.0, 1.0]));
+        assert_eq!(c.infill.fill_level, FillLevel::Height(1.0));
+        assert!(Config::from_toml("[mesh]\nup = \"sideways\"\n", "c").is_err());
+        assert!(Config::from_toml("[infill]\nfill_level = \"half\"\n", "c").is_err());
+        // Round trip through TOML.
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(Config::from_toml(&text, "rt").unwrap(), c);
+    }
+}

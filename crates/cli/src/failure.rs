@@ -1,0 +1,46 @@
+//! How a command fails: the exit code depends on whose fault it is.
+//!
+//! - [`Failure::Input`]: bad input or usage (a mesh file, a config key, a value): exit 2.
+//! - [`Failure::Internal`]: the machine failed (a solver did not converge, a disk write failed):
+//!   exit 1.
+//! - [`Failure::Reported`]: the command already printed its verdict (e.g. `check` on an
+//!   unusable mesh); exit with the given code and print nothing more.
+
+/// A failed command.
+#[derive(Debug)]
+pub enum Failure {
+    /// The user's input is at fault (exit 2).
+    Input(anyhow::Error),
+    /// Something failed inside clothcast or the machine (exit 1).
+    Internal(anyhow::Error),
+    /// Already reported; exit with this code.
+    Reported(u8),
+}
+
+impl Failure {
+    /// Process exit code.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Failure::Input(_) => 2,
+            Failure::Internal(_) => 1,
+            Failure::Reported(c) => *c,
+        }
+    }
+}
+
+/// Attach a fault class (and optional context) to a `Result`.
+pub trait Blame<T> {
+    /// The error is the user's input.
+    fn input(self) -> Result<T, Failure>;
+    /// The error is internal.
+    fn internal(self) -> Result<T, Failure>;
+}
+
+impl<T, E: Into<anyhow::Error>> Blame<T> for Result<T, E> {
+    fn input(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Input(e.into()))
+    }
+    fn internal(self) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Internal(e.into()))
+    }
+}

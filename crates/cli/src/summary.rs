@@ -1,0 +1,36 @@
+//! `summary.json`: the machine-readable record of a run. Names are stable: later stages add
+//! sections, nothing is renamed.
+
+use crate::config::Config;
+use crate::input::InputSummary;
+use serde::Serialize;
+
+/// Timing of one stage.
+#[derive(Serialize, Clone, Debug)]
+pub struct StageTime {
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Every stage that ran, in pipeline order.
+#[derive(Serialize, Clone, Debug, Default)]
+pub struct Stages {
+    /// Reading, validating, repairing and scaling the mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input: Option<StageTime>,
+}
+
+/// The whole summary.
+#[derive(Serialize, Clone, Debug)]
+pub struct Summary {
+    /// clothcast version.
+    pub version: &'static str,
+    /// The target mesh as used.
+    pub input: InputSummary,
+    /// The resolved scenario (config file + command line).
+    pub scenario: Config,
+    /// Stage timings.
+    pub stages: Stages,
+    /// Total wall-clock seconds.
+    pub seconds_total: f64,
+}
