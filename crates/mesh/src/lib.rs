@@ -37,6 +37,9 @@ pub use mesh::Mesh;
 pub use soup::{Aabb, TriSoup};
 pub use validate::{Problem, SoupAnalysis, analyze};
 
+/// The linear-algebra crate behind [`sparse`], re-exported so every stage uses the same version.
+pub use faer;
+
 /// 3D vector (f64).
 pub type Vec3 = nalgebra::Vector3<f64>;
 /// 2D vector (f64).
