@@ -1,9 +1,40 @@
 //! # clothcast-sim
 //!
-//! Simulation: the equilibrium shape of the fabric mold under the liquid infill (paper §3).
+//! The first stage of the pipeline (paper §3): the equilibrium shape of the fabric mold when it
+//! hangs from its clamps and is filled with liquid, solved **statically** by Newton's method on
+//! the total potential (the paper used a dynamic backward-Euler solver and names a static one as
+//! future work).
 //!
-//! Input: the target mesh, material, loads and boundary conditions. Output: the deformed positions, per-face principal stretches and solver statistics.
+//! - [`material`]: the `Material` trait and the isotropic St. Venant–Kirchhoff membrane
+//!   (Young's modulus Y in N/m, Poisson ratio ν; the paper's Eq. 2).
+//! - [`element`]: constant-strain triangles; each target triangle flattened isometrically is its
+//!   own rest shape; PSD-projected Hessians.
+//! - [`hydrostatic`]: the infill pressure as a conservative potential, exact for faces crossing
+//!   the fill level.
+//! - [`loads`]: head pressure, self weight, support planes (log-barrier contact).
+//! - [`constraints`]: clamps and sliding constraints as per-vertex frames.
+//! - [`system`], [`newton`]: assembly with a fixed sparse pattern and the Newton solver with a
+//!   reused symbolic Cholesky factorization.
+//! - [`scenario`]: the one-shot [`simulate`] with suspension modes and precondition checks.
 //!
-//! This stage is not built yet: the crate holds its place in the pipeline (see
-//! `docs/ARCHITECTURE.md`) and will carry its types and algorithms when its issue lands.
-//! It deliberately exports nothing rather than a placeholder.
+//! ```
+//! use clothcast_mesh::shapes;
+//! use clothcast_sim::{material::StVenantKirchhoff, scenario::*};
+//! let mesh = shapes::icosphere(2, 0.2);
+//! let sc = Scenario { infill_density: 0.0, head_pressure: 500.0, suspension: Suspension::None, ..Default::default() };
+//! let mat = StVenantKirchhoff::from_young_poisson(5.0e4, 0.3);
+//! let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+//! assert!(r.stats.converged && r.stats.residual_rel <= 1e-8);
+//! ```
+
+pub mod constraints;
+pub mod element;
+pub mod hydrostatic;
+pub mod loads;
+pub mod material;
+pub mod newton;
+pub mod scenario;
+pub mod system;
+
+pub use material::{Material, StVenantKirchhoff};
+pub use scenario::{FillLevel, Scenario, SimError, SimResult, SimStats, Suspension, simulate};

@@ -1,0 +1,242 @@
+//! Constant-strain membrane triangles (ALGORITHMS.md §1.1).
+//!
+//! Each target triangle, flattened isometrically into its own face frame, is the rest shape of
+//! its element (paper §3: the panels are not known yet, so every triangle is its own panel).
+//! With shape-function gradients `∇N_a` (rows of `Dm⁻¹`, `∇N0 = −∇N1 − ∇N2`), the
+//! deformation gradient is `F = Σ_a x_a ⊗ ∇N_a` (3×2), `C = FᵀF`, `E = ½(C − I)`.
+//!
+//! For node a, `B_a` maps `δx_a` to the Voigt strain variation:
+//! rows `∇N_a[0] F0ᵀ`, `∇N_a[1] F1ᵀ`, `∇N_a[1] F0ᵀ + ∇N_a[0] F1ᵀ` (F0, F1 the columns of F).
+//! Then `∂Ψ/∂x_a = A0 B_aᵀ S` and
+//! `∂²Ψ/∂x_a∂x_b = A0 (B_aᵀ C B_b + (∇N_aᵀ S ∇N_b) I₃)`.
+//!
+//! The first (material) term is PSD whenever the material tangent is; the second (geometric)
+//! term is indefinite under compression. [`Element::hessian_projected`] replaces S by its
+//! positive part S⁺ in the geometric term, which gives a PSD Hessian that equals the exact one
+//! wherever the membrane is in tension (the common case under infill pressure), at the cost of
+//! two 2×2 eigen-decompositions instead of a 9×9 one.
+
+use crate::material::{Material, MaterialResponse};
+use clothcast_mesh::{FaceId, Mesh, Vec3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2, Vector3};
+
+/// 9×9 element matrix (vertex-major: rows 3a..3a+3 belong to corner a).
+pub type Mat9 = SMatrix<f64, 9, 9>;
+/// 9-vector.
+pub type Vec9 = SMatrix<f64, 9, 1>;
+
+/// Rest data of one triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct Element {
+    /// Shape-function gradients of the three corners in the rest (face) frame.
+    pub grad_n: [Vector2<f64>; 3],
+    /// Rest area.
+    pub area: f64,
+}
+
+/// Deformation of one element.
+#[derive(Clone, Copy, Debug)]
+pub struct Kinematics {
+    /// Columns of F.
+    pub f: [Vec3; 2],
+    /// Green strain, Voigt (E11, E22, 2E12).
+    pub strain: Vector3<f64>,
+}
+
+impl Element {
+    /// Rest data from the three corners of a (non-degenerate) triangle.
+    pub fn from_corners(p: &[Vec3; 3]) -> Self {
+        let e01 = p[1] - p[0];
+        let e02 = p[2] - p[0];
+        let n = e01.cross(&e02);
+        let b1 = e01.normalize();
+        let b2 = n.normalize().cross(&b1);
+        // Dm = [[l, a], [0, b]]
+        let l = e01.norm();
+        let (a, b) = (e02.dot(&b1), e02.dot(&b2));
+        let dm_inv = Matrix2::new(1.0 / l, -a / (l * b), 0.0, 1.0 / b);
+        let g1 = Vector2::new(dm_inv[(0, 0)], dm_inv[(0, 1)]);
+        let g2 = Vector2::new(dm_inv[(1, 0)], dm_inv[(1, 1)]);
+        Self { grad_n: [-(g1 + g2), g1, g2], area: 0.5 * l * b }
+    }
+
+    /// Rest data of every face of a mesh (the target is the rest shape).
+    pub fn for_mesh(mesh: &Mesh) -> Vec<Self> {
+        mesh.face_ids().map(|f| Self::from_corners(&mesh.face_positions(f))).collect()
+    }
+
+    /// F and the Green strain at deformed corners `x`.
+    #[inline]
+    pub fn kinematics(&self, x: &[Vec3; 3]) -> Kinematics {
+        let mut f = [Vec3::zeros(); 2];
+        for a in 0..3 {
+            f[0] += x[a] * self.grad_n[a][0];
+            f[1] += x[a] * self.grad_n[a][1];
+        }
+        let c00 = f[0].dot(&f[0]);
+        let c11 = f[1].dot(&f[1]);
+        let c01 = f[0].dot(&f[1]);
+        Kinematics { f, strain: Vector3::new(0.5 * (c00 - 1.0), 0.5 * (c11 - 1.0), c01) }
+    }
+
+    /// Elastic energy.
+    #[inline]
+    pub fn energy(&self, mat: &dyn Material, face: FaceId, x: &[Vec3; 3]) -> f64 {
+        self.area * mat.energy(face, &self.kinematics(x).strain)
+    }
+
+    fn b_matrix(&self, k: &Kinematics, a: usize) -> Matrix3<f64> {
+        let g = self.grad_n[a];
+        let (f0, f1) = (k.f[0], k.f[1]);
+        let r2 = f0 * g[1] + f1 * g[0];
+        Matrix3::from_rows(&[(f0 * g[0]).transpose(), (f1 * g[1]).transpose(), r2.transpose()])
+    }
+
+    /// Energy, gradient and the Hessian (exact, or with the geometric term's stress replaced
+    /// by its positive part when `project` is set).
+    pub fn evaluate(&self, mat: &dyn Material, face: FaceId, x: &[Vec3; 3], project: bool) -> (f64, Vec9, Mat9) {
+        let k = self.kinematics(x);
+        let MaterialResponse { energy, stress, tangent } = mat.response(face, &k.strain);
+        let b = [self.b_matrix(&k, 0), self.b_matrix(&k, 1), self.b_matrix(&k, 2)];
+        let mut g = Vec9::zeros();
+        for a in 0..3 {
+            g.fixed_rows_mut::<3>(3 * a).copy_from(&(b[a].transpose() * stress * self.area));
+        }
+        let s = Matrix2::new(stress[0], stress[2], stress[2], stress[1]);
+        let s_geo = if project { positive_part(&s) } else { s };
+        let mut h = Mat9::zeros();
+        let cb: [Matrix3<f64>; 3] = [tangent * b[0], tangent * b[1], tangent * b[2]];
+        for a in 0..3 {
+            for c in a..3 {
+                let geo = (self.grad_n[a].transpose() * s_geo * self.grad_n[c])[0];
+                let blk = (b[a].transpose() * cb[c] + Matrix3::identity() * geo) * self.area;
+                h.fixed_view_mut::<3, 3>(3 * a, 3 * c).copy_from(&blk);
+                if c != a {
+                    h.fixed_view_mut::<3, 3>(3 * c, 3 * a).copy_from(&blk.transpose());
+                }
+            }
+        }
+        (self.area * energy, g, h)
+    }
+
+    /// Eigenvalues λ1 ≥ λ2 of C = FᵀF (squared principal stretches) and the unit direction
+    /// of λ1 in the rest (face) frame.
+    pub fn principal_stretches(&self, x: &[Vec3; 3]) -> (f64, f64, Vector2<f64>) {
+        let k = self.kinematics(x);
+        let (a, c, b) = (1.0 + 2.0 * k.strain[0], 1.0 + 2.0 * k.strain[1], k.strain[2]);
+        let (l1, l2, angle) = sym2_eigen(a, b, c);
+        (l1, l2, Vector2::new(angle.cos(), angle.sin()))
+    }
+}
+
+/// Closed-form eigen-decomposition of [[a, b], [b, c]]: (λ1 ≥ λ2, angle of λ1's eigenvector).
+#[inline]
+pub fn sym2_eigen(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
+    let m = 0.5 * (a + c);
+    let r = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    (m + r, m - r, 0.5 * (2.0 * b).atan2(a - c))
+}
+
+/// Positive semi-definite part of a symmetric 2×2 matrix (negative eigenvalues set to 0).
+#[inline]
+pub fn positive_part(s: &Matrix2<f64>) -> Matrix2<f64> {
+    let (l1, l2, th) = sym2_eigen(s[(0, 0)], s[(0, 1)], s[(1, 1)]);
+    if l2 >= 0.0 {
+        return *s;
+    }
+    if l1 <= 0.0 {
+        return Matrix2::zeros();
+    }
+    let v = Vector2::new(th.cos(), th.sin());
+    v * v.transpose() * l1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::StVenantKirchhoff;
+    use nalgebra::Rotation3;
+
+    fn tri() -> [Vec3; 3] {
+        [Vec3::new(0.1, 0.2, 0.0), Vec3::new(1.3, 0.1, 0.2), Vec3::new(0.4, 0.9, -0.1)]
+    }
+
+    #[test]
+    fn rest_state_is_stress_free_and_rigid_motions_give_no_force() {
+        let mat = StVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let p = tri();
+        let e = Element::from_corners(&p);
+        let rot = Rotation3::from_euler_angles(0.3, -1.1, 2.0);
+        let t = Vec3::new(3.0, -2.0, 0.5);
+        let moved = p.map(|x| rot * x + t);
+        for x in [p, moved] {
+            let (w, g, _) = e.evaluate(&mat, FaceId(0), &x, false);
+            assert!(w.abs() < 1e-20, "{w}");
+            assert!(g.norm() < 1e-10, "{}", g.norm());
+        }
+        assert!((e.area - 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn uniaxial_stretch_closed_form() {
+        // Stretch a right triangle by s along x: E11 = (s²−1)/2, S11 = (λ+2μ)E11, S22 = λE11.
+        let mat = StVenantKirchhoff::from_young_poisson(2000.0, 0.25);
+        let p = [Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let e = Element::from_corners(&p);
+        let s = 1.2;
+        let x = p.map(|v| Vec3::new(v.x * s, v.y, v.z));
+        let (w, _, _) = e.evaluate(&mat, FaceId(0), &x, false);
+        let e11 = 0.5 * (s * s - 1.0);
+        let expect = 0.5 * (mat.lambda + 2.0 * mat.mu) * e11 * e11 * 0.5;
+        assert!((w - expect).abs() < 1e-12 * expect, "{w} vs {expect}");
+        let (l1, l2, d) = e.principal_stretches(&x);
+        assert!((l1 - s * s).abs() < 1e-12 && (l2 - 1.0).abs() < 1e-12);
+        assert!((d.x.abs() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gradient_and_hessian_match_finite_differences() {
+        let mat = StVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let p = tri();
+        let e = Element::from_corners(&p);
+        // A deformed state with both tension and compression.
+        let x = [p[0] + Vec3::new(0.05, -0.02, 0.1), p[1] * 1.1, p[2] + Vec3::new(-0.1, -0.2, 0.3)];
+        let flat = |x: &[Vec3; 3]| Vec9::from_iterator(x.iter().flat_map(|v| [v.x, v.y, v.z]));
+        let unflat = |v: &Vec9| [0, 1, 2].map(|a| Vec3::new(v[3 * a], v[3 * a + 1], v[3 * a + 2]));
+        let (_, g, h) = e.evaluate(&mat, FaceId(0), &x, false);
+        let x0 = flat(&x);
+        let eps = 1e-6;
+        for i in 0..9 {
+            let mut xp = x0;
+            let mut xm = x0;
+            xp[i] += eps;
+            xm[i] -= eps;
+            let (wp, gp, _) = e.evaluate(&mat, FaceId(0), &unflat(&xp), false);
+            let (wm, gm, _) = e.evaluate(&mat, FaceId(0), &unflat(&xm), false);
+            let fd = (wp - wm) / (2.0 * eps);
+            assert!((fd - g[i]).abs() < 1e-6 * (1.0 + g[i].abs()), "grad {i}: {fd} vs {}", g[i]);
+            let fdh = (gp - gm) / (2.0 * eps);
+            for j in 0..9 {
+                assert!(
+                    (fdh[j] - h[(j, i)]).abs() < 1e-5 * (1.0 + h[(j, i)].abs()),
+                    "hess ({j},{i}): {} vs {}",
+                    fdh[j],
+                    h[(j, i)]
+                );
+            }
+        }
+        // The projected Hessian is PSD.
+        let (_, _, hp) = e.evaluate(&mat, FaceId(0), &x, true);
+        let ev = hp.symmetric_eigenvalues();
+        assert!(ev.min() > -1e-9 * ev.max(), "{ev}");
+    }
+
+    #[test]
+    fn positive_part_of_2x2() {
+        let s = Matrix2::new(2.0, 1.0, 1.0, -3.0);
+        let p = positive_part(&s);
+        let ev = p.symmetric_eigenvalues();
+        assert!(ev.min().abs() < 1e-12 && ev.max() > 0.0);
+        assert_eq!(positive_part(&Matrix2::new(1.0, 0.0, 0.0, 2.0)), Matrix2::new(1.0, 0.0, 0.0, 2.0));
+    }
+}

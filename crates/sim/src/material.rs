@@ -1,0 +1,264 @@
+//! Membrane materials: energy density as a function of the Green strain.
+//!
+//! Strains and stresses use Voigt vectors in the element's material frame (the face frame of
+//! the target triangle, `b1` along its first edge): `E = [E11, E22, 2·E12]` (engineering
+//! shear), `S = [S11, S22, S12]` (second Piola–Kirchhoff), so that `δW = S · δE`. The tangent
+//! is `C = ∂S/∂E` (3×3).
+//!
+//! The trait takes the face so that materials with directions (the orthotropic woven-fabric
+//! model of Wang et al. 2011, which needs the warp angle of every face) fit behind it.
+
+use clothcast_mesh::FaceId;
+use nalgebra::{Matrix3, Vector3};
+
+/// Energy density (per unit rest area) and its first two derivatives at a strain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialResponse {
+    /// W (J/m²).
+    pub energy: f64,
+    /// S = ∂W/∂E in Voigt form (N/m).
+    pub stress: Vector3<f64>,
+    /// ∂²W/∂E² (N/m); must be symmetric positive semi-definite for Newton's projection.
+    pub tangent: Matrix3<f64>,
+}
+
+/// A hyperelastic membrane material.
+pub trait Material: Send + Sync {
+    /// Response of face `face` at Green strain `e` (Voigt, material frame).
+    fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse;
+    /// Energy only (cheaper where it matters, e.g. line searches).
+    fn energy(&self, face: FaceId, e: &Vector3<f64>) -> f64 {
+        self.response(face, e).energy
+    }
+    /// A representative stiffness (N/m) used to scale regularization and tolerances.
+    fn reference_stiffness(&self) -> f64;
+}
+
+/// Isotropic St. Venant–Kirchhoff membrane in plane stress:
+/// `W = μ tr(E²) + ½ λ (tr E)²` with the project's convention (ALGORITHMS.md §1.1): Young's
+/// modulus Y (thickness-integrated, N/m) and Poisson ratio ν give
+/// `λ = Yν/(1−ν²)`, `μ = G = Y/(2(1+ν))` — the paper's Eq. 2 with k_uu = k_vv ↔ Y.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StVenantKirchhoff {
+    /// λ (N/m).
+    pub lambda: f64,
+    /// μ (N/m).
+    pub mu: f64,
+}
+
+impl StVenantKirchhoff {
+    /// From Y (N/m) and ν.
+    pub fn from_young_poisson(youngs_modulus: f64, poisson_ratio: f64) -> Self {
+        let (y, nu) = (youngs_modulus, poisson_ratio);
+        Self { lambda: y * nu / (1.0 - nu * nu), mu: y / (2.0 * (1.0 + nu)) }
+    }
+    /// Young's modulus Y = 4μ(λ+μ)/(λ+2μ).
+    pub fn youngs_modulus(&self) -> f64 {
+        4.0 * self.mu * (self.lambda + self.mu) / (self.lambda + 2.0 * self.mu)
+    }
+    /// Poisson ratio ν = λ/(λ+2μ).
+    pub fn poisson_ratio(&self) -> f64 {
+        self.lambda / (self.lambda + 2.0 * self.mu)
+    }
+    fn tangent(&self) -> Matrix3<f64> {
+        let (l, m) = (self.lambda, self.mu);
+        Matrix3::new(l + 2.0 * m, l, 0.0, l, l + 2.0 * m, 0.0, 0.0, 0.0, m)
+    }
+}
+
+impl Material for StVenantKirchhoff {
+    fn response(&self, _face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
+        let c = self.tangent();
+        let stress = c * e;
+        MaterialResponse { energy: 0.5 * e.dot(&stress), stress, tangent: c }
+    }
+    fn energy(&self, _face: FaceId, e: &Vector3<f64>) -> f64 {
+        let tr = e[0] + e[1];
+        // μ tr(E²) + ½ λ (tr E)² with E12 = e[2]/2.
+        self.mu * (e[0] * e[0] + e[1] * e[1] + 0.5 * e[2] * e[2]) + 0.5 * self.lambda * tr * tr
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.lambda + 2.0 * self.mu
+    }
+}
+
+/// St. Venant–Kirchhoff with the tension-field (wrinkling) relaxation of membrane theory
+/// (Pipkin 1986; the "material modification" wrinkling models of membrane structures, e.g.
+/// Jarasjarungkiat, Wüchner & Bletzinger 2008): a fabric cannot carry compression, it wrinkles.
+///
+/// With principal Green strains e1 ≥ e2 (eigenvectors v1, v2) and the plain StVK principal
+/// stress `S2 = λ e1 + (λ+2μ) e2`:
+/// - taut (S2 ≥ 0): plain StVK;
+/// - wrinkled (S2 < 0 < e1): uniaxial tension along v1, `W = ½ Y e1²`, `S = Y e1 v1v1ᵀ`
+///   (the relaxed energy `min_{e ≥ e2} W(e1, e)`);
+/// - slack (e1 ≤ 0): `W = 0`.
+///
+/// The energy is C¹ across the regions, the stress is always positive semi-definite, and the
+/// tangent `Y P1⊗P1 + Y e1/(e1−e2) (P1 dE P2 + P2 dE P1)` (P_i the eigenprojectors) is PSD,
+/// so Newton needs no projection and converges where plain StVK, whose compressed regions are
+/// saddles (the membrane would buckle), stalls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WrinklingStVenantKirchhoff {
+    /// The underlying StVK parameters.
+    pub stvk: StVenantKirchhoff,
+}
+
+/// Region of the tension-field model a strain falls in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TensionState {
+    /// Both principal stresses ≥ 0.
+    Taut,
+    /// Uniaxial tension; wrinkles across it.
+    Wrinkled,
+    /// No tension at all.
+    Slack,
+}
+
+impl WrinklingStVenantKirchhoff {
+    /// From Y (N/m) and ν.
+    pub fn from_young_poisson(youngs_modulus: f64, poisson_ratio: f64) -> Self {
+        Self { stvk: StVenantKirchhoff::from_young_poisson(youngs_modulus, poisson_ratio) }
+    }
+
+    /// Principal strains (e1 ≥ e2), angle of v1, and the region.
+    pub fn state(&self, e: &Vector3<f64>) -> (f64, f64, f64, TensionState) {
+        let (e1, e2, th) = crate::element::sym2_eigen(e[0], 0.5 * e[2], e[1]);
+        let (l, m) = (self.stvk.lambda, self.stvk.mu);
+        let s2 = l * e1 + (l + 2.0 * m) * e2;
+        let st = if s2 >= 0.0 {
+            TensionState::Taut
+        } else if e1 > 0.0 {
+            TensionState::Wrinkled
+        } else {
+            TensionState::Slack
+        };
+        (e1, e2, th, st)
+    }
+}
+
+impl Material for WrinklingStVenantKirchhoff {
+    fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
+        let (e1, e2, th, st) = self.state(e);
+        match st {
+            TensionState::Taut => self.stvk.response(face, e),
+            TensionState::Slack => {
+                MaterialResponse { energy: 0.0, stress: Vector3::zeros(), tangent: Matrix3::zeros() }
+            }
+            TensionState::Wrinkled => {
+                let y = self.stvk.youngs_modulus();
+                let (c, s) = (th.cos(), th.sin());
+                // Eigenprojectors in Voigt-friendly components.
+                let p1 = [c * c, s * s, c * s];
+                let p2 = [s * s, c * c, -c * s];
+                let stress = Vector3::new(p1[0], p1[1], p1[2]) * (y * e1);
+                // Columns: response to the Voigt strain unit vectors (E11, E22, 2E12 = 1).
+                let k = y * e1 / (e1 - e2);
+                let mut tangent = Matrix3::zeros();
+                let units: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.5]];
+                let m = |a: [f64; 3]| nalgebra::Matrix2::new(a[0], a[2], a[2], a[1]);
+                let (mp1, mp2) = (m(p1), m(p2));
+                for (j, d) in units.iter().enumerate() {
+                    let de = m(*d);
+                    let dp1 = mp1.component_mul(&de).sum(); // P1 : dE
+                    let cross = mp1 * de * mp2 + mp2 * de * mp1;
+                    let ds = mp1 * (y * dp1) + cross * k;
+                    tangent.set_column(j, &Vector3::new(ds[(0, 0)], ds[(1, 1)], ds[(0, 1)]));
+                }
+                MaterialResponse { energy: 0.5 * y * e1 * e1, stress, tangent }
+            }
+        }
+    }
+    fn energy(&self, face: FaceId, e: &Vector3<f64>) -> f64 {
+        let (e1, _, _, st) = self.state(e);
+        match st {
+            TensionState::Taut => self.stvk.energy(face, e),
+            TensionState::Wrinkled => 0.5 * self.stvk.youngs_modulus() * e1 * e1,
+            TensionState::Slack => 0.0,
+        }
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.stvk.reference_stiffness()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrinkling_model_is_c1_with_consistent_derivatives() {
+        let m = WrinklingStVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let f = FaceId(0);
+        // Taut, wrinkled and slack samples (Voigt strains), away from region boundaries.
+        let samples = [
+            Vector3::new(0.05, 0.04, 0.01),
+            Vector3::new(0.08, -0.05, 0.03),
+            Vector3::new(0.02, -0.06, -0.05),
+            Vector3::new(-0.03, -0.02, 0.01),
+        ];
+        let expect = [TensionState::Taut, TensionState::Wrinkled, TensionState::Wrinkled, TensionState::Slack];
+        for (e, st) in samples.iter().zip(expect) {
+            assert_eq!(m.state(e).3, st, "{e:?}");
+            let r = m.response(f, e);
+            assert!((r.energy - m.energy(f, e)).abs() < 1e-14);
+            let h = 1e-7;
+            for j in 0..3 {
+                let mut ep = *e;
+                let mut em = *e;
+                ep[j] += h;
+                em[j] -= h;
+                let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
+                assert!(
+                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
+                    "{st:?} dW/dE{j}: {ds} vs {}",
+                    r.stress[j]
+                );
+                let dc = (m.response(f, &ep).stress - m.response(f, &em).stress) / (2.0 * h);
+                for i in 0..3 {
+                    assert!(
+                        (dc[i] - r.tangent[(i, j)]).abs() < 1e-4 * (1.0 + r.tangent[(i, j)].abs()),
+                        "{st:?} C{i}{j}: {} vs {}",
+                        dc[i],
+                        r.tangent[(i, j)]
+                    );
+                }
+            }
+            // Stress and tangent positive semi-definite.
+            let s = nalgebra::Matrix2::new(r.stress[0], r.stress[2], r.stress[2], r.stress[1]);
+            assert!(s.symmetric_eigenvalues().min() > -1e-9);
+            assert!(r.tangent.symmetric_eigenvalues().min() > -1e-9);
+        }
+        // Continuity across the taut/wrinkled boundary (S2 = 0): e2 = −ν' e1.
+        let nu = m.stvk.lambda / (m.stvk.lambda + 2.0 * m.stvk.mu);
+        for d in [1e-9, -1e-9] {
+            let e = Vector3::new(0.05, -nu * 0.05 + d, 0.0);
+            let r = m.response(f, &e);
+            assert!((r.energy - 0.5 * m.stvk.youngs_modulus() * 0.05f64.powi(2)).abs() < 1e-6);
+            assert!(r.stress[1].abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn lame_conversion_round_trips() {
+        let m = StVenantKirchhoff::from_young_poisson(50_000.0, 0.3);
+        assert!((m.youngs_modulus() - 50_000.0).abs() < 1e-9);
+        assert!((m.poisson_ratio() - 0.3).abs() < 1e-12);
+        // G = Y / (2(1+ν)), λ+μ = Y / (2(1−ν)).
+        assert!((m.mu - 50_000.0 / 2.6).abs() < 1e-9);
+        assert!((m.lambda + m.mu - 50_000.0 / 1.4).abs() < 1e-9);
+    }
+
+    #[test]
+    fn energy_matches_response_and_tensor_form() {
+        let m = StVenantKirchhoff::from_young_poisson(1000.0, 0.25);
+        let e = Vector3::new(0.1, -0.03, 0.08);
+        let r = m.response(FaceId(0), &e);
+        assert!((r.energy - m.energy(FaceId(0), &e)).abs() < 1e-12);
+        // Tensor form: μ (E11² + E22² + 2 E12²) + λ/2 (E11 + E22)².
+        let e12 = e[2] / 2.0;
+        let w = m.mu * (e[0] * e[0] + e[1] * e[1] + 2.0 * e12 * e12) + 0.5 * m.lambda * (e[0] + e[1]).powi(2);
+        assert!((r.energy - w).abs() < 1e-12);
+        // S12 = 2 μ E12.
+        assert!((r.stress[2] - 2.0 * m.mu * e12).abs() < 1e-12);
+    }
+}

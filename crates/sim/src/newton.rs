@@ -1,0 +1,401 @@
+//! Static equilibrium by Newton's method on the total potential.
+//!
+//! Each iteration: assemble the gradient and the Hessian (elastic part projected to PSD, see
+//! [`crate::element`]; pressure part exact), factor `H + μD` with the sparse Cholesky whose
+//! symbolic analysis (node-level AMD ordering) was done once, solve for the step, and backtrack
+//! along it until the energy decreases enough (Armijo). When the previous factor is a good
+//! preconditioner, conjugate gradients replace the factorization (inexact Newton). `D` is a lumped stiffness scale (reference stiffness ×
+//! vertex area / mean edge²) and μ ≥ 0 an adaptive Levenberg–Marquardt damping: raised when
+//! the matrix is not positive definite or the full step is rejected, lowered (to exactly zero,
+//! i.e. pure Newton with quadratic convergence) when full steps succeed. This is what carries
+//! the solve from the stress-free target, where a membrane has no stiffness against
+//! out-of-plane motion, to the tensioned equilibrium.
+//!
+//! If the line search keeps failing at full load, the load factor is cut back (continuation)
+//! from the last converged load step and raised again once that converges.
+//!
+//! Convergence: `‖∇Π‖ ≤ tolerance · max(‖f_ext‖, ‖f_int‖)` at full load, ∇Π and the load
+//! f_ext on the free degrees of freedom, the internal forces f_int over all vertices
+//! (reactions included, so that a displacement-driven problem without load has a scale).
+
+use crate::system::System;
+use clothcast_mesh::Vec3;
+use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, SolveError, SymmetricPattern};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Newton options.
+#[derive(Clone, Debug)]
+pub struct NewtonOptions {
+    /// Relative residual at convergence.
+    pub tolerance: f64,
+    /// Iterations allowed (all load steps together).
+    pub max_iterations: usize,
+    /// Initial damping μ.
+    pub initial_damping: f64,
+    /// Factor applied to μ after a full step.
+    pub damping_decrease: f64,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        Self { tolerance: 1e-8, max_iterations: 200, initial_damping: 1e-2, damping_decrease: 0.25 }
+    }
+}
+
+/// One iteration, for logs and tests.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct IterationReport {
+    /// Iteration number (1-based).
+    pub iteration: usize,
+    /// Π before the step.
+    pub energy: f64,
+    /// ‖∇Π‖/‖f_ext‖ before the step.
+    pub residual_rel: f64,
+    /// Accepted step length (0 if rejected).
+    pub step: f64,
+    /// Damping used.
+    pub damping: f64,
+    /// Load factor.
+    pub load_factor: f64,
+}
+
+/// Why the solver stopped.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Termination {
+    /// Residual below tolerance at full load.
+    Converged,
+    /// Out of iterations.
+    MaxIterations,
+    /// No further progress possible.
+    Stalled(String),
+}
+
+/// Solver statistics.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SolveStats {
+    /// Newton iterations (steps attempted).
+    pub iterations: usize,
+    /// Numeric Cholesky factorizations (including ones refused as not positive definite).
+    pub factorizations: usize,
+    /// Seconds in numeric factorization.
+    pub factorization_seconds: f64,
+    /// Median time of a successful factorization: the floor of one Newton step.
+    pub factorization_seconds_median: f64,
+    /// Seconds in symbolic analysis.
+    pub symbolic_seconds: f64,
+    /// Seconds assembling gradients and Hessians.
+    pub assembly_seconds: f64,
+    /// Seconds in triangular solves.
+    pub solve_seconds: f64,
+    /// Seconds in line searches.
+    pub line_search_seconds: f64,
+    /// Load-step cutbacks.
+    pub load_cutbacks: usize,
+    /// Newton steps solved by conjugate gradients preconditioned with an earlier factor
+    /// (no new factorization).
+    pub reused_factor_steps: usize,
+    /// Conjugate-gradient iterations in those steps.
+    pub pcg_iterations: usize,
+    /// Final relative residual.
+    pub residual_rel: f64,
+    /// Free degrees of freedom.
+    pub dofs: usize,
+    /// Stored entries of the Hessian (lower triangle).
+    pub hessian_nnz: usize,
+}
+
+/// Result of a Newton solve.
+pub struct NewtonResult {
+    /// Final positions.
+    pub positions: Vec<Vec3>,
+    /// Why it stopped.
+    pub termination: Termination,
+    /// Statistics.
+    pub stats: SolveStats,
+    /// Every iteration.
+    pub history: Vec<IterationReport>,
+    /// World-space gradient at the final positions (for reactions).
+    pub world_gradient: Vec<Vec3>,
+}
+
+/// Solve for equilibrium from `x0`. `progress` is called after every iteration.
+pub fn solve(
+    sys: &mut System<'_>,
+    x0: Vec<Vec3>,
+    opts: &NewtonOptions,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<NewtonResult, SolveError> {
+    let mut stats = SolveStats { dofs: sys.n_dofs(), hessian_nnz: sys.pattern().nnz(), ..Default::default() };
+    let mut factor_times: Vec<f64> = Vec::new();
+    let mut history = Vec::new();
+    let mut x = x0;
+    if sys.n_dofs() == 0 {
+        let ev = sys.evaluate(&x, 1.0, false);
+        return Ok(NewtonResult {
+            positions: x,
+            termination: Termination::Converged,
+            stats,
+            history,
+            world_gradient: ev.world_gradient,
+        });
+    }
+    let t = Instant::now();
+    let chol = CholeskySolver::with_ordering(sys.pattern(), Some(&sys.dof_ordering()?))?;
+    stats.symbolic_seconds = t.elapsed().as_secs_f64();
+
+    // Damping scale D: the Hessian's diagonal at the start, floored at its median so that
+    // dofs without stiffness at rest (out-of-plane motion of a flat membrane) get the
+    // in-plane scale.
+    let d_scale: Vec<f64> = {
+        let h = sys.evaluate(&x, 1.0, true).hessian.expect("requested");
+        let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| h[s].abs()).collect();
+        let mut sorted = diag.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2].max(f64::MIN_POSITIVE);
+        diag.iter().map(|&d| d.max(median)).collect()
+    };
+
+    let mut mu = opts.initial_damping;
+    let (mut s, mut s_ok, mut ds) = (1.0f64, 0.0f64, 1.0f64);
+    let mut x_ok = x.clone();
+    let mut failures = 0usize;
+    let mut trial = vec![Vec3::zeros(); x.len()];
+    let mut factor: Option<CholeskyFactor> = None;
+    let mut pcg_promising = false;
+    let termination;
+    let mut last_world_gradient;
+    loop {
+        let ta = Instant::now();
+        let ev = sys.evaluate(&x, s, true);
+        stats.assembly_seconds += ta.elapsed().as_secs_f64();
+        last_world_gradient = ev.world_gradient;
+        let gnorm = norm(&ev.gradient);
+        // Scale: the load, or the internal forces when they are larger (prescribed
+        // displacements without load), so the criterion is meaningful either way.
+        let fnorm = norm(&ev.external).max(ev.internal_norm).max(f64::MIN_POSITIVE);
+        let r = gnorm / fnorm;
+        stats.residual_rel = r;
+        if r <= opts.tolerance || gnorm == 0.0 {
+            if s >= 1.0 {
+                termination = Termination::Converged;
+                break;
+            }
+            // Load step done: advance.
+            s_ok = s;
+            x_ok.copy_from_slice(&x);
+            ds = (ds * 2.0).min(1.0 - s_ok);
+            s = (s_ok + ds).min(1.0);
+            continue;
+        }
+        if stats.iterations >= opts.max_iterations {
+            termination = Termination::MaxIterations;
+            break;
+        }
+        stats.iterations += 1;
+        let mut vals = ev.hessian.expect("requested");
+        let base = (mu > 0.0).then(|| vals.clone());
+        let add_damping = |vals: &mut [f64], mu: f64| {
+            for (i, &slot) in sys.diagonal_slots().iter().enumerate() {
+                vals[slot] += mu * d_scale[i];
+            }
+        };
+        if mu > 0.0 {
+            add_damping(&mut vals, mu);
+        }
+        let rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
+        let mut step = vec![0.0; rhs.len()];
+        // Inexact Newton: conjugate gradients preconditioned by the last factor (forcing term
+        // min(0.1, √r)), worth it only when it converges in a few iterations, so tried only
+        // undamped and right after a fresh factor or a successful reuse.
+        let ts = Instant::now();
+        let reused = match &factor {
+            Some(f) if f.is_valid() && mu == 0.0 && pcg_promising => {
+                let eta = r.sqrt().min(0.1);
+                match pcg(sys.pattern(), &vals, f, &rhs, eta * gnorm, PCG_MAX_ITER, &mut step) {
+                    Some(k) => {
+                        stats.pcg_iterations += k;
+                        stats.reused_factor_steps += 1;
+                        true
+                    }
+                    None => {
+                        stats.pcg_iterations += PCG_MAX_ITER;
+                        pcg_promising = false;
+                        false
+                    }
+                }
+            }
+            _ => false,
+        };
+        stats.solve_seconds += ts.elapsed().as_secs_f64();
+        if !reused {
+            let base = base.unwrap_or_else(|| vals.clone());
+            // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
+            let ok = loop {
+                let tf = Instant::now();
+                let res = match &mut factor {
+                    Some(f) => chol.refactor(sys.pattern(), &vals, f),
+                    None => chol.factor(sys.pattern(), &vals).map(|f| {
+                        factor = Some(f);
+                    }),
+                };
+                let dt = tf.elapsed().as_secs_f64();
+                stats.factorizations += 1;
+                stats.factorization_seconds += dt;
+                if res.is_ok() {
+                    factor_times.push(dt);
+                }
+                match res {
+                    Ok(()) => break true,
+                    Err(SolveError::NotPositiveDefinite { .. }) => {
+                        mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
+                        if mu > 1e12 {
+                            break false;
+                        }
+                        vals.copy_from_slice(&base);
+                        add_damping(&mut vals, mu);
+                    }
+                    Err(e) => return Err(e),
+                }
+            };
+            if !ok {
+                termination =
+                    Termination::Stalled("the stiffness matrix stays indefinite even with heavy damping".into());
+                break;
+            }
+            let ts = Instant::now();
+            step.copy_from_slice(&rhs);
+            factor.as_ref().expect("factored").solve_in_place(&mut step);
+            stats.solve_seconds += ts.elapsed().as_secs_f64();
+            pcg_promising = true;
+        }
+
+        // Backtracking line search on Π.
+        let tl = Instant::now();
+        let slope: f64 = ev.gradient.iter().zip(&step).map(|(g, d)| g * d).sum();
+        let mut alpha = sys.max_feasible_step(&x, &step);
+        let mut accepted = 0.0;
+        if slope < 0.0 {
+            // Round-off of Π grows with the magnitude of the summed terms; once the predicted
+            // decrease is below it, the step is accepted if Π does not rise beyond it.
+            let noise = 1e-13 * ev.energy_magnitude.max(ev.energy.abs());
+            while alpha > 1e-10 {
+                sys.apply_step(&x, &step, alpha, &mut trial);
+                let e = sys.energy(&trial, s);
+                if e <= ev.energy + 1e-4 * alpha * slope || (-alpha * slope <= noise && e <= ev.energy + noise) {
+                    accepted = alpha;
+                    break;
+                }
+                alpha *= 0.5;
+            }
+        }
+        stats.line_search_seconds += tl.elapsed().as_secs_f64();
+        let report = IterationReport {
+            iteration: stats.iterations,
+            energy: ev.energy,
+            residual_rel: r,
+            step: accepted,
+            damping: mu,
+            load_factor: s,
+        };
+        history.push(report);
+        progress(&report);
+        tracing::debug!(
+            iteration = report.iteration,
+            energy = report.energy,
+            residual = r,
+            step = accepted,
+            damping = mu,
+            load = s,
+            reused,
+            "newton"
+        );
+        if accepted > 0.0 {
+            std::mem::swap(&mut x, &mut trial);
+            failures = 0;
+            mu = if accepted == 1.0 {
+                if mu < 1e-9 { 0.0 } else { mu * opts.damping_decrease }
+            } else {
+                (mu * 4.0).max(1e-8)
+            };
+        } else {
+            tracing::debug!(slope, step_norm = norm(&step), grad_norm = gnorm, residual = r, "line search failed");
+            failures += 1;
+            mu = (mu * 10.0).max(1e-6);
+            // Cut the load back only when even heavily damped steps fail.
+            if failures >= 4 && mu >= 1e2 {
+                if s - s_ok < 1e-4 {
+                    termination = Termination::Stalled(format!("no descent step found at load factor {s:.4}"));
+                    break;
+                }
+                stats.load_cutbacks += 1;
+                ds = 0.5 * (s - s_ok);
+                s = s_ok + ds;
+                x.copy_from_slice(&x_ok);
+                failures = 0;
+                mu = opts.initial_damping;
+            }
+        }
+    }
+    factor_times.sort_by(f64::total_cmp);
+    stats.factorization_seconds_median = factor_times.get(factor_times.len() / 2).copied().unwrap_or(0.0);
+    Ok(NewtonResult { positions: x, termination, stats, history, world_gradient: last_world_gradient })
+}
+
+/// Conjugate-gradient iterations allowed with a reused factor before refactoring.
+const PCG_MAX_ITER: usize = 4;
+
+/// Preconditioned conjugate gradients on `A x = b` (A in `pattern` with `vals`), preconditioned
+/// by a Cholesky factor of a nearby matrix (an earlier Newton step's). Starts from x = 0.
+/// Returns the iteration count, or None on negative curvature or no convergence.
+fn pcg(
+    pattern: &SymmetricPattern,
+    vals: &[f64],
+    m: &CholeskyFactor,
+    b: &[f64],
+    tol: f64,
+    max_iter: usize,
+    x: &mut [f64],
+) -> Option<usize> {
+    let n = b.len();
+    x.iter_mut().for_each(|v| *v = 0.0);
+    let mut r = b.to_vec();
+    let mut z = r.clone();
+    m.solve_in_place(&mut z);
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let mut ap = vec![0.0; n];
+    for k in 0..max_iter {
+        pattern.mul_vec(vals, &p, &mut ap);
+        let pap = dot(&p, &ap);
+        if !(pap > 0.0) {
+            return None;
+        }
+        let alpha = rz / pap;
+        for i in 0..n {
+            x[i] += alpha * p[i];
+            r[i] -= alpha * ap[i];
+        }
+        if norm(&r) <= tol {
+            return Some(k + 1);
+        }
+        z.copy_from_slice(&r);
+        m.solve_in_place(&mut z);
+        let rz_new = dot(&r, &z);
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for i in 0..n {
+            p[i] = z[i] + beta * p[i];
+        }
+    }
+    None
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}

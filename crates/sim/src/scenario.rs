@@ -1,0 +1,360 @@
+//! One-shot simulation of a filled mold: scenario → preconditions → Newton → outputs.
+
+use crate::constraints::Constraints;
+use crate::hydrostatic::Hydrostatic;
+use crate::loads::{Barrier, Plane};
+use crate::material::Material;
+use crate::newton::{IterationReport, NewtonOptions, SolveStats, Termination, solve};
+use crate::system::{Loads, System};
+use clothcast_mesh::sparse::SolveError;
+use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Standard gravity (m/s²).
+pub const GRAVITY: f64 = 9.81;
+
+/// How the mold is held.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Suspension {
+    /// Clamp every vertex within `band` metres of the top (along up).
+    TopBand {
+        /// Band height (m).
+        band: f64,
+    },
+    /// Clamp these vertices.
+    Vertices(Vec<VertexId>),
+    /// Clamp every boundary vertex.
+    Boundary,
+    /// Nothing clamped; rigid motions removed by a statically determinate 3-2-1 support.
+    None,
+}
+
+/// Fill level of the liquid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FillLevel {
+    /// The highest point of the mold.
+    Top,
+    /// This many metres above the lowest point (along up).
+    Height(f64),
+}
+
+/// A simulation scenario (SI units, positions in metres).
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Unit up direction (the suspension direction).
+    pub up: Vec3,
+    /// Liquid density (kg/m³); 0 for no infill.
+    pub infill_density: f64,
+    /// Fill level.
+    pub fill_level: FillLevel,
+    /// Uniform extra pressure (Pa).
+    pub head_pressure: f64,
+    /// Fabric areal density (kg/m²) when its weight counts.
+    pub self_weight: Option<f64>,
+    /// Boundary conditions.
+    pub suspension: Suspension,
+    /// Support planes.
+    pub supports: Vec<Plane>,
+    /// Gravity (m/s²).
+    pub gravity: f64,
+    /// Newton options.
+    pub newton: NewtonOptions,
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Self {
+            up: Vec3::z(),
+            infill_density: 1460.0,
+            fill_level: FillLevel::Top,
+            head_pressure: 0.0,
+            self_weight: None,
+            suspension: Suspension::TopBand { band: 0.05 },
+            supports: Vec::new(),
+            gravity: GRAVITY,
+            newton: NewtonOptions::default(),
+        }
+    }
+}
+
+/// What can go wrong. Variants other than [`SimError::Solver`] are problems of the input or
+/// the scenario (exit code 2 in the CLI).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// The surface's normals point into the liquid.
+    #[error(
+        "the mesh is oriented inward (its enclosed volume is {volume:.4e} m³, negative): the infill would pull the fabric in; pass --repair to flip it"
+    )]
+    InwardOrientation {
+        /// The (negative) signed volume.
+        volume: f64,
+    },
+    /// Nothing holds the mold although the load is not self-equilibrated.
+    #[error(
+        "suspension \"none\" needs a self-equilibrated load (head pressure only), but the {load} has a net weight; clamp the mold (e.g. mode \"top-band\")"
+    )]
+    NotSelfEquilibrated {
+        /// Which load.
+        load: &'static str,
+    },
+    /// A suspension vertex id is out of range.
+    #[error("suspension vertex {vertex} does not exist (the mesh has {vertices} vertices)")]
+    NoSuchVertex {
+        /// The id.
+        vertex: usize,
+        /// Vertex count.
+        vertices: usize,
+    },
+    /// Boundary suspension on a closed mesh.
+    #[error("suspension \"boundary\" needs an open mesh, but this one has no boundary")]
+    NoBoundary,
+    /// An opening below the liquid level is not clamped.
+    #[error(
+        "boundary vertex {vertex} (boundary loop {boundary_loop}) lies {depth:.4} m below the fill level but is not clamped: the liquid would spill; clamp the boundary (mode \"boundary\") or lower the fill level"
+    )]
+    SpillingBoundary {
+        /// Loop index.
+        boundary_loop: usize,
+        /// The vertex.
+        vertex: VertexId,
+        /// Its depth below the level (m).
+        depth: f64,
+    },
+    /// Head pressure on an open mesh whose boundary is not clamped.
+    #[error("head pressure on an open mold needs its boundary clamped (boundary vertex {vertex} is free)")]
+    HeadPressureOnFreeBoundary {
+        /// A free boundary vertex.
+        vertex: VertexId,
+    },
+    /// A vertex starts on the wrong side of a support.
+    #[error("vertex {vertex} starts {distance:.4e} m behind support {support}: move the support or the mesh")]
+    BehindSupport {
+        /// Support index.
+        support: usize,
+        /// The vertex.
+        vertex: VertexId,
+        /// Signed distance (≤ 0).
+        distance: f64,
+    },
+    /// The linear solver failed (not an input problem).
+    #[error("linear solver failure: {0}")]
+    Solver(#[from] SolveError),
+}
+
+impl SimError {
+    /// True for problems of the input or scenario (as opposed to internal failures).
+    pub fn is_input_error(&self) -> bool {
+        !matches!(self, SimError::Solver(_))
+    }
+}
+
+/// Machine-readable statistics (the `simulation` section of summary.json).
+#[derive(Clone, Debug, Serialize)]
+pub struct SimStats {
+    /// Residual below tolerance at full load.
+    pub converged: bool,
+    /// Why the solver stopped.
+    pub termination: Termination,
+    /// Newton iterations.
+    pub newton_iterations: usize,
+    /// Final ‖∇Π‖/‖f_ext‖.
+    pub residual_rel: f64,
+    /// Largest vertex displacement (m).
+    pub max_displacement_m: f64,
+    /// Mean vertex displacement (m).
+    pub mean_displacement_m: f64,
+    /// Vertices with at least one constrained direction.
+    pub fixed_vertices: usize,
+    /// Liquid volume at equilibrium (m³).
+    pub liquid_volume_m3: f64,
+    /// Largest pressure at equilibrium (Pa).
+    pub pressure_max_pa: f64,
+    /// Total force from the clamps (N).
+    pub reaction_force_n: [f64; 3],
+    /// Force on each support plane (N).
+    pub support_forces_n: Vec<[f64; 3]>,
+    /// Smallest and largest squared principal stretch over the faces.
+    pub lambda_range: [f64; 2],
+    /// Solver details (factorizations, timings, dofs).
+    pub solver: SolveStats,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// The equilibrium.
+pub struct SimResult {
+    /// Deformed positions (m).
+    pub positions: VertexData<Vec3>,
+    /// Squared principal stretches (λ1 ≥ λ2) per face.
+    pub stretch: FaceData<[f64; 2]>,
+    /// Statistics.
+    pub stats: SimStats,
+    /// Iteration history.
+    pub history: Vec<IterationReport>,
+}
+
+fn extent(mesh: &Mesh, up: &Vec3) -> (f64, f64) {
+    mesh.positions()
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.dot(up)), hi.max(p.dot(up))))
+}
+
+/// Constraints of a suspension mode.
+pub fn suspension_constraints(mesh: &Mesh, suspension: &Suspension, up: &Vec3) -> Result<Constraints, SimError> {
+    let mut c = Constraints::free(mesh.n_vertices());
+    match suspension {
+        Suspension::TopBand { band } => {
+            let (_, top) = extent(mesh, up);
+            for v in mesh.vertices() {
+                if mesh.position(v).dot(up) >= top - band {
+                    c.fix_vertex(v);
+                }
+            }
+        }
+        Suspension::Vertices(vs) => {
+            for &v in vs {
+                if v.idx() >= mesh.n_vertices() {
+                    return Err(SimError::NoSuchVertex { vertex: v.idx(), vertices: mesh.n_vertices() });
+                }
+                c.fix_vertex(v);
+            }
+        }
+        Suspension::Boundary => {
+            if mesh.boundary_loops().is_empty() {
+                return Err(SimError::NoBoundary);
+            }
+            for lp in mesh.boundary_loops() {
+                for &h in lp {
+                    c.fix_vertex(mesh.tail(h));
+                }
+            }
+        }
+        Suspension::None => {
+            c.anchor_rigid_motions(mesh);
+        }
+    }
+    Ok(c)
+}
+
+/// Simulate the filled mold: `mesh` is the target (and rest) shape in metres.
+pub fn simulate(
+    mesh: &Mesh,
+    material: &dyn Material,
+    sc: &Scenario,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<SimResult, SimError> {
+    let t0 = Instant::now();
+    let up = sc.up.normalize();
+    let (low, top) = extent(mesh, &up);
+    let fill_height = match sc.fill_level {
+        FillLevel::Top => top,
+        FillLevel::Height(h) => low + h,
+    };
+    let hydro = (sc.infill_density > 0.0 && fill_height > low).then_some(Hydrostatic {
+        rho_g: sc.infill_density * sc.gravity,
+        up,
+        fill_height,
+    });
+    let loads = Loads {
+        hydrostatic: hydro,
+        head_pressure: sc.head_pressure,
+        self_weight: sc.self_weight.filter(|&a| a > 0.0).map(|a| (a * sc.gravity, up)),
+    };
+
+    // Preconditions.
+    if (hydro.is_some() || loads.head_pressure > 0.0) && mesh.signed_volume() < 0.0 {
+        return Err(SimError::InwardOrientation { volume: mesh.signed_volume() });
+    }
+    if sc.suspension == Suspension::None {
+        if hydro.is_some() {
+            return Err(SimError::NotSelfEquilibrated { load: "liquid infill" });
+        }
+        if loads.self_weight.is_some() {
+            return Err(SimError::NotSelfEquilibrated { load: "fabric's own weight" });
+        }
+    }
+    let constraints = suspension_constraints(mesh, &sc.suspension, &up)?;
+    for (li, lp) in mesh.boundary_loops().iter().enumerate() {
+        for &h in lp {
+            let v = mesh.tail(h);
+            if constraints.n_fixed(v) == 3 {
+                continue;
+            }
+            if let Some(hy) = &hydro {
+                let d = hy.depth(&mesh.position(v));
+                if d > 1e-9 * (top - low) {
+                    return Err(SimError::SpillingBoundary { boundary_loop: li, vertex: v, depth: d });
+                }
+            }
+            if loads.head_pressure != 0.0 {
+                return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
+            }
+        }
+    }
+    for (si, pl) in sc.supports.iter().enumerate() {
+        for v in mesh.vertices() {
+            let d = pl.distance(&mesh.position(v));
+            if d <= 0.0 {
+                return Err(SimError::BehindSupport { support: si, vertex: v, distance: d });
+            }
+        }
+    }
+    // Barrier scale: a tenth of a mean edge; stiffness so that it holds the largest
+    // per-vertex pressure load at half that distance.
+    let barrier = (!sc.supports.is_empty()).then(|| {
+        let dhat = 0.1 * mesh.mean_edge_length();
+        let p_max = hydro.map(|h| h.rho_g * (h.fill_height - low)).unwrap_or(0.0)
+            + loads.head_pressure.abs()
+            + loads.self_weight.map(|w| w.0).unwrap_or(0.0);
+        let a_v = mesh.total_area() / mesh.n_vertices() as f64;
+        Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
+    });
+
+    let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
+    let x0: Vec<Vec3> = mesh.positions().as_slice().to_vec();
+    let res = solve(&mut sys, x0, &sc.newton, progress)?;
+
+    // Outputs.
+    let positions = VertexData::from_vec(res.positions);
+    let stretch: FaceData<[f64; 2]> = mesh
+        .face_ids()
+        .zip(sys.elements())
+        .map(|(f, e)| {
+            let p = mesh.face_vertices(f).map(|v| positions[v]);
+            let (l1, l2, _) = e.principal_stretches(&p);
+            [l1, l2]
+        })
+        .collect();
+    let disp: Vec<f64> = mesh.vertices().map(|v| (positions[v] - mesh.position(v)).norm()).collect();
+    let (mut liquid, mut pmax) = (0.0, loads.head_pressure.max(0.0));
+    if let Some(hy) = &hydro {
+        for f in mesh.face_ids() {
+            liquid += hy.face_liquid_volume(&mesh.face_vertices(f).map(|v| positions[v]));
+        }
+        let deepest = positions.iter().map(|p| hy.depth(p)).fold(0.0, f64::max);
+        pmax += hy.rho_g * deepest;
+    }
+    let reaction = sys.reaction(&res.world_gradient);
+    let support_forces = sys.contact_forces(positions.as_slice());
+    let lmin = stretch.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min);
+    let lmax = stretch.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max);
+    let stats = SimStats {
+        converged: res.termination == Termination::Converged,
+        termination: res.termination,
+        newton_iterations: res.stats.iterations,
+        residual_rel: res.stats.residual_rel,
+        max_displacement_m: disp.iter().copied().fold(0.0, f64::max),
+        mean_displacement_m: disp.iter().sum::<f64>() / disp.len().max(1) as f64,
+        fixed_vertices: constraints.constrained_vertices(),
+        liquid_volume_m3: liquid,
+        pressure_max_pa: pmax,
+        reaction_force_n: reaction.into(),
+        support_forces_n: support_forces.iter().map(|f| (*f).into()).collect(),
+        lambda_range: [lmin, lmax],
+        solver: res.stats,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok(SimResult { positions, stretch, stats, history: res.history })
+}

@@ -1,0 +1,469 @@
+//! The total potential Π = U_elastic − s·(W_hydrostatic + W_head) + s·Π_weight + Π_contact
+//! (s the load factor), its gradient and its Hessian on the free degrees of freedom.
+//!
+//! Degrees of freedom are the free axes of each vertex's constraint frame
+//! ([`crate::constraints::Constraints`]). The sparse pattern (3×3 blocks of vertices sharing a
+//! face) is built once, with the value slot of every element-matrix entry precomputed, so
+//! assembling a Hessian is a parallel per-face evaluation followed by a sequential scatter
+//! (deterministic, no sorting). Per-face results go to reusable buffers.
+
+use crate::constraints::Constraints;
+use crate::element::{Element, Mat9, Vec9};
+use crate::hydrostatic::Hydrostatic;
+use crate::loads::{Barrier, Plane, face_volume};
+use crate::material::Material;
+use clothcast_mesh::sparse::SymmetricPattern;
+use clothcast_mesh::{FaceId, Mesh, Vec3, VertexId};
+use nalgebra::Matrix3;
+use rayon::prelude::*;
+
+/// External loads.
+#[derive(Clone, Debug, Default)]
+pub struct Loads {
+    /// Liquid infill.
+    pub hydrostatic: Option<Hydrostatic>,
+    /// Uniform pressure (Pa) over the whole surface.
+    pub head_pressure: f64,
+    /// Fabric weight: (g · areal density) in N/m², and the up direction.
+    pub self_weight: Option<(f64, Vec3)>,
+}
+
+const NO_SLOT: u32 = u32::MAX;
+const CHUNK: usize = 2048;
+
+/// Per-face evaluation results.
+#[derive(Clone, Copy)]
+struct FaceEval {
+    energy: f64,
+    magnitude: f64,
+    grad: Vec9,
+    ext_grad: Vec9,
+    hess: Mat9,
+}
+
+/// The discretized problem on a fixed mesh.
+pub struct System<'a> {
+    mesh: &'a Mesh,
+    material: &'a dyn Material,
+    loads: Loads,
+    supports: Vec<Plane>,
+    barrier: Option<Barrier>,
+    elements: Vec<Element>,
+    volume_center: Vec3,
+    vertex_mass_weight: Vec<f64>,
+    /// Per vertex: frame (None = identity) and number of constrained leading axes.
+    frames: Vec<(Option<Matrix3<f64>>, usize)>,
+    /// Per vertex, per local axis: free dof index or u32::MAX.
+    dof: Vec<[u32; 3]>,
+    n_dofs: usize,
+    pattern: SymmetricPattern,
+    /// Per face, per (row, col) of the 9×9 block with row-dof ≥ col-dof: the value slot.
+    face_slots: Vec<[u32; 81]>,
+    /// Per vertex: the slots of its 3×3 diagonal block (for contact).
+    vertex_slots: Vec<[u32; 9]>,
+    diag_slots: Vec<usize>,
+    buf: Vec<FaceEval>,
+}
+
+/// One evaluation on free dofs.
+pub struct Evaluation {
+    /// Π.
+    pub energy: f64,
+    /// ∇Π on free dofs.
+    pub gradient: Vec<f64>,
+    /// External force (−∇ of the load potentials) on free dofs.
+    pub external: Vec<f64>,
+    /// Hessian values (pattern order), if requested.
+    pub hessian: Option<Vec<f64>>,
+    /// ∇Π per vertex in world coordinates (constrained components included).
+    pub world_gradient: Vec<Vec3>,
+    /// Σ of the magnitudes of the terms summed into Π: the scale of its round-off.
+    pub energy_magnitude: f64,
+    /// Norm of the internal (elastic and contact) forces over all vertices, constrained ones
+    /// included (there they balance the reactions).
+    pub internal_norm: f64,
+}
+
+impl<'a> System<'a> {
+    /// Set up: elements, dofs, pattern and slots.
+    pub fn new(
+        mesh: &'a Mesh,
+        material: &'a dyn Material,
+        loads: Loads,
+        constraints: &Constraints,
+        supports: Vec<Plane>,
+        barrier: Option<Barrier>,
+    ) -> Self {
+        let nv = mesh.n_vertices();
+        let elements = Element::for_mesh(mesh);
+        let areas = mesh.vertex_areas();
+        let vertex_mass_weight = match loads.self_weight {
+            Some((w, _)) => areas.iter().map(|a| a * w).collect(),
+            None => vec![0.0; nv],
+        };
+        let frames: Vec<_> = mesh.vertices().map(|v| constraints.frame(v)).collect();
+        let mut dof = vec![[u32::MAX; 3]; nv];
+        let mut n = 0u32;
+        for v in 0..nv {
+            for k in frames[v].1..3 {
+                dof[v][k] = n;
+                n += 1;
+            }
+        }
+        let n_dofs = n as usize;
+        // Pattern: all dof pairs of vertices sharing a face.
+        let mut entries = Vec::with_capacity(mesh.n_faces() * 45);
+        for f in mesh.face_ids() {
+            let vs = mesh.face_vertices(f);
+            for &a in &vs {
+                for &b in &vs {
+                    for &i in &dof[a.idx()] {
+                        for &j in &dof[b.idx()] {
+                            if i != u32::MAX && j != u32::MAX && i >= j {
+                                entries.push((i as usize, j as usize));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let pattern = SymmetricPattern::from_entries(n_dofs, entries);
+        let face_slots: Vec<[u32; 81]> = mesh
+            .face_ids()
+            .map(|f| {
+                let vs = mesh.face_vertices(f);
+                let mut s = [NO_SLOT; 81];
+                for p in 0..9 {
+                    for q in 0..9 {
+                        let (i, j) = (dof[vs[p / 3].idx()][p % 3], dof[vs[q / 3].idx()][q % 3]);
+                        if i != u32::MAX && j != u32::MAX && i >= j {
+                            s[9 * p + q] = pattern.slot(i as usize, j as usize) as u32;
+                        }
+                    }
+                }
+                s
+            })
+            .collect();
+        let vertex_slots = (0..nv)
+            .map(|v| {
+                let mut s = [NO_SLOT; 9];
+                for p in 0..3 {
+                    for q in 0..3 {
+                        let (i, j) = (dof[v][p], dof[v][q]);
+                        if i != u32::MAX && j != u32::MAX && i >= j {
+                            s[3 * p + q] = pattern.slot(i as usize, j as usize) as u32;
+                        }
+                    }
+                }
+                s
+            })
+            .collect();
+        let diag_slots = pattern.diagonal_slots();
+        let volume_center = mesh.bbox().center();
+        let zero =
+            FaceEval { energy: 0.0, magnitude: 0.0, grad: Vec9::zeros(), ext_grad: Vec9::zeros(), hess: Mat9::zeros() };
+        Self {
+            mesh,
+            material,
+            loads,
+            supports,
+            barrier,
+            elements,
+            volume_center,
+            vertex_mass_weight,
+            frames,
+            dof,
+            n_dofs,
+            pattern,
+            face_slots,
+            vertex_slots,
+            diag_slots,
+            buf: vec![zero; mesh.n_faces()],
+        }
+    }
+
+    /// Number of free degrees of freedom.
+    pub fn n_dofs(&self) -> usize {
+        self.n_dofs
+    }
+    /// The Hessian pattern.
+    pub fn pattern(&self) -> &SymmetricPattern {
+        &self.pattern
+    }
+    /// Fill-reducing ordering of the free dofs: AMD on the vertex graph, each vertex expanded
+    /// to its free dofs.
+    pub fn dof_ordering(&self) -> Result<Vec<usize>, clothcast_mesh::sparse::SolveError> {
+        let dofs: Vec<Vec<usize>> =
+            self.dof.iter().map(|d| d.iter().filter(|&&i| i != u32::MAX).map(|&i| i as usize).collect()).collect();
+        let edges = self.mesh.edges().map(|e| {
+            let [a, b] = self.mesh.edge_vertices(e);
+            (a.idx(), b.idx())
+        });
+        clothcast_mesh::sparse::CholeskySolver::node_ordering(self.mesh.n_vertices(), edges, &dofs)
+    }
+
+    /// Slots of the diagonal entries.
+    pub fn diagonal_slots(&self) -> &[usize] {
+        &self.diag_slots
+    }
+    /// Rest elements.
+    pub fn elements(&self) -> &[Element] {
+        &self.elements
+    }
+    /// Supports.
+    pub fn supports(&self) -> &[Plane] {
+        &self.supports
+    }
+    /// Barrier, if supports exist.
+    pub fn barrier(&self) -> Option<Barrier> {
+        self.barrier
+    }
+
+    /// Free dof → (vertex, world direction).
+    pub fn dof_direction(&self, v: usize, k: usize) -> Vec3 {
+        match self.frames[v].0 {
+            Some(r) => r.column(k).into_owned(),
+            None => Vec3::ith(k, 1.0),
+        }
+    }
+
+    /// x + Σ step_i · direction_i.
+    pub fn apply_step(&self, x: &[Vec3], step: &[f64], alpha: f64, out: &mut [Vec3]) {
+        out.copy_from_slice(x);
+        for v in 0..x.len() {
+            for k in 0..3 {
+                let i = self.dof[v][k];
+                if i != u32::MAX {
+                    out[v] += self.dof_direction(v, k) * (alpha * step[i as usize]);
+                }
+            }
+        }
+    }
+
+    fn face_corners(&self, x: &[Vec3], f: FaceId) -> [Vec3; 3] {
+        self.mesh.face_vertices(f).map(|v| x[v.idx()])
+    }
+
+    /// Potential energy only; +∞ if a vertex reached or crossed a support.
+    pub fn energy(&self, x: &[Vec3], s: f64) -> f64 {
+        let faces: Vec<f64> = (0..self.mesh.n_faces())
+            .collect::<Vec<_>>()
+            .par_chunks(CHUNK)
+            .map(|c| {
+                c.iter()
+                    .map(|&fi| {
+                        let f = FaceId::new(fi);
+                        let p = self.face_corners(x, f);
+                        let mut e = self.elements[fi].energy(self.material, f, &p);
+                        if let Some(h) = &self.loads.hydrostatic {
+                            e -= s * h.work(&p);
+                        }
+                        if self.loads.head_pressure != 0.0 {
+                            let y = p.map(|q| q - self.volume_center);
+                            e -= s * self.loads.head_pressure * y[0].dot(&y[1].cross(&y[2])) / 6.0;
+                        }
+                        e
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let mut e: f64 = faces.iter().sum();
+        e += s * self.weight_energy(x);
+        e + self.contact_energy(x)
+    }
+
+    fn weight_energy(&self, x: &[Vec3]) -> f64 {
+        match self.loads.self_weight {
+            Some((_, up)) => x.iter().zip(&self.vertex_mass_weight).map(|(p, m)| m * p.dot(&up)).sum(),
+            None => 0.0,
+        }
+    }
+
+    fn contact_energy(&self, x: &[Vec3]) -> f64 {
+        let Some(b) = self.barrier else { return 0.0 };
+        let mut e = 0.0;
+        for pl in &self.supports {
+            for p in x {
+                e += b.eval(pl.distance(p)).0;
+            }
+        }
+        e
+    }
+
+    /// Largest step fraction (≤ 1) that keeps every vertex at least 20% of its current
+    /// distance away from every support.
+    pub fn max_feasible_step(&self, x: &[Vec3], step: &[f64]) -> f64 {
+        if self.supports.is_empty() {
+            return 1.0;
+        }
+        let mut moved = vec![Vec3::zeros(); x.len()];
+        self.apply_step(x, step, 1.0, &mut moved);
+        let mut alpha: f64 = 1.0;
+        for pl in &self.supports {
+            for (p, q) in x.iter().zip(&moved) {
+                let (d0, d1) = (pl.distance(p), pl.distance(q));
+                if d1 < 0.2 * d0 {
+                    alpha = alpha.min(0.8 * d0 / (d0 - d1));
+                }
+            }
+        }
+        alpha
+    }
+
+    /// Energy, gradient, external force and (optionally) the Hessian with its elastic part
+    /// projected to PSD (see [`crate::element`]).
+    pub fn evaluate(&mut self, x: &[Vec3], s: f64, hessian: bool) -> Evaluation {
+        let mesh = self.mesh;
+        let material = self.material;
+        let loads = &self.loads;
+        let elements = &self.elements;
+        let center = self.volume_center;
+        self.buf.par_iter_mut().enumerate().for_each(|(fi, out)| {
+            let f = FaceId::new(fi);
+            let p = mesh.face_vertices(f).map(|v| x[v.idx()]);
+            let (mut e, mut g, mut h) = elements[fi].evaluate(material, f, &p, true);
+            let mut ext = 0.0;
+            let mut eg = Vec9::zeros();
+            if let Some(hy) = &loads.hydrostatic
+                && let Some((w, wg, wh)) = hy.work_derivatives(&p)
+            {
+                ext += w;
+                eg += wg;
+                if hessian {
+                    h -= wh * s;
+                }
+            }
+            if loads.head_pressure != 0.0 {
+                let (v, vg, vh) = face_volume(&p, &center);
+                let ph = loads.head_pressure;
+                ext += ph * v;
+                eg += vg * ph;
+                if hessian {
+                    h -= vh * (ph * s);
+                }
+            }
+            let magnitude = e.abs() + (s * ext).abs();
+            e -= s * ext;
+            g -= eg * s;
+            *out = FaceEval { energy: e, magnitude, grad: g, ext_grad: eg, hess: h };
+        });
+        // Sequential, deterministic reduction.
+        let nv = mesh.n_vertices();
+        let mut grad = vec![Vec3::zeros(); nv];
+        let mut extf = vec![Vec3::zeros(); nv];
+        let mut energy = 0.0;
+        let mut energy_magnitude = 0.0;
+        for (fi, r) in self.buf.iter().enumerate() {
+            energy += r.energy;
+            energy_magnitude += r.magnitude;
+            let vs = mesh.face_vertices(FaceId::new(fi));
+            for a in 0..3 {
+                grad[vs[a].idx()] += r.grad.fixed_rows::<3>(3 * a);
+                extf[vs[a].idx()] += r.ext_grad.fixed_rows::<3>(3 * a);
+            }
+        }
+        if let Some((_, up)) = loads.self_weight {
+            for v in 0..nv {
+                let w = self.vertex_mass_weight[v];
+                energy += s * w * x[v].dot(&up);
+                grad[v] += up * (s * w);
+                extf[v] -= up * w;
+            }
+        }
+        // Contact: per-vertex barrier blocks.
+        let mut contact_blocks: Vec<(usize, Matrix3<f64>)> = Vec::new();
+        if let Some(b) = self.barrier {
+            for pl in &self.supports {
+                for v in 0..nv {
+                    let (e, d1, d2) = b.eval(pl.distance(&x[v]));
+                    if e != 0.0 {
+                        energy += e;
+                        grad[v] += pl.normal * d1;
+                        contact_blocks.push((v, pl.normal * pl.normal.transpose() * d2));
+                    }
+                }
+            }
+        }
+        let internal_norm = grad.iter().zip(&extf).map(|(g, f)| (g + f * s).norm_squared()).sum::<f64>().sqrt();
+        let gradient = self.to_dofs(&grad);
+        let external = self.to_dofs(&extf).iter().map(|v| v * s).collect();
+        let hess = hessian.then(|| {
+            let mut vals = vec![0.0; self.pattern.nnz()];
+            for (fi, r) in self.buf.iter().enumerate() {
+                let vs = mesh.face_vertices(FaceId::new(fi));
+                let h = self.rotate_block9(&r.hess, &vs);
+                let slots = &self.face_slots[fi];
+                for k in 0..81 {
+                    if slots[k] != NO_SLOT {
+                        vals[slots[k] as usize] += h[(k / 9, k % 9)];
+                    }
+                }
+            }
+            for (v, blk) in contact_blocks {
+                let blk = match self.frames[v].0 {
+                    Some(r) => r.transpose() * blk * r,
+                    None => blk,
+                };
+                for k in 0..9 {
+                    let s = self.vertex_slots[v][k];
+                    if s != NO_SLOT {
+                        vals[s as usize] += blk[(k / 3, k % 3)];
+                    }
+                }
+            }
+            vals
+        });
+        Evaluation { energy, gradient, external, hessian: hess, world_gradient: grad, energy_magnitude, internal_norm }
+    }
+
+    fn rotate_block9(&self, h: &Mat9, vs: &[VertexId; 3]) -> Mat9 {
+        if vs.iter().all(|v| self.frames[v.idx()].0.is_none()) {
+            return *h;
+        }
+        let mut r = Mat9::identity();
+        for (a, v) in vs.iter().enumerate() {
+            if let Some(m) = self.frames[v.idx()].0 {
+                r.fixed_view_mut::<3, 3>(3 * a, 3 * a).copy_from(&m);
+            }
+        }
+        r.transpose() * h * r
+    }
+
+    /// World vectors per vertex → values on free dofs (projected on the free axes).
+    pub fn to_dofs(&self, v: &[Vec3]) -> Vec<f64> {
+        let mut out = vec![0.0; self.n_dofs];
+        for (i, w) in v.iter().enumerate() {
+            for k in 0..3 {
+                let d = self.dof[i][k];
+                if d != u32::MAX {
+                    out[d as usize] = self.dof_direction(i, k).dot(w);
+                }
+            }
+        }
+        out
+    }
+
+    /// Total force the constraints exert on the fabric: at a constrained vertex equilibrium
+    /// is −∇Π + R = 0, so R is the world gradient's component along the constrained axes
+    /// (zero for a self-equilibrated load on a statically determinate support).
+    pub fn reaction(&self, world_gradient: &[Vec3]) -> Vec3 {
+        let mut total = Vec3::zeros();
+        for (v, g) in world_gradient.iter().enumerate() {
+            let (frame, k) = self.frames[v];
+            for a in 0..k {
+                let dir = match frame {
+                    Some(r) => r.column(a).into_owned(),
+                    None => Vec3::ith(a, 1.0),
+                };
+                total += dir * dir.dot(g);
+            }
+        }
+        total
+    }
+
+    /// Contact force on each support (N): the barrier's push on the fabric.
+    pub fn contact_forces(&self, x: &[Vec3]) -> Vec<Vec3> {
+        let Some(b) = self.barrier else { return vec![Vec3::zeros(); self.supports.len()] };
+        self.supports.iter().map(|pl| x.iter().map(|p| pl.normal * (-b.eval(pl.distance(p)).1)).sum()).collect()
+    }
+}
