@@ -31,6 +31,8 @@ pub enum Command {
     /// INPUT is a mesh file (.obj .ply .stl .off) or a scenario file (.toml). Without INPUT
     /// the built-in example (a rounded tetrahedron 0.5 m tall) is used.
     Run(RunArgs),
+    /// Run only the simulation of the filled mold: writes deformed.ply and summary.json.
+    Simulate(RunArgs),
     /// Validate a mesh and print its topology and every problem found.
     ///
     /// Exit code 0 if the mesh is usable (with the given --repair/--largest-component), 2 if not.
@@ -39,6 +41,27 @@ pub enum Command {
     Example(ExampleArgs),
     /// Print the default scenario file, every key commented.
     Config(ConfigArgs),
+    /// Time the simulation on meshes (default scenario, rescaled to --height).
+    ///
+    /// Reports Newton iterations, time per iteration and the time of one sparse
+    /// factorization of the same system (the floor a Newton solver cannot beat).
+    Bench(BenchArgs),
+}
+
+/// `clothcast bench`
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Meshes to simulate (the built-in example when none is given).
+    pub meshes: Vec<PathBuf>,
+    /// Scenario file (TOML) applied to every mesh.
+    #[arg(short, long)]
+    pub config: Option<PathBuf>,
+    /// Height along up (metres) every mesh is rescaled to.
+    #[arg(long, default_value_t = 0.5)]
+    pub height: f64,
+    /// Print the results as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Options shared by the commands that load a mesh.
@@ -76,6 +99,9 @@ pub struct RunArgs {
     /// Seed for random choices (overrides the scenario's seed).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Continue even if the simulation does not converge (marked in summary.json).
+    #[arg(long)]
+    pub allow_unconverged: bool,
     /// Mesh options.
     #[command(flatten)]
     pub mesh: MeshArgs,

@@ -163,6 +163,8 @@ impl<'de> Deserialize<'de> for Up {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MaterialSection {
+    /// Membrane model.
+    pub model: MaterialModel,
     /// Y (N/m).
     pub youngs_modulus: f64,
     /// ν.
@@ -175,8 +177,26 @@ pub struct MaterialSection {
 
 impl Default for MaterialSection {
     fn default() -> Self {
-        Self { youngs_modulus: 50_000.0, poisson_ratio: 0.3, areal_density: 0.25, self_weight: false }
+        Self {
+            model: MaterialModel::TensionField,
+            youngs_modulus: 50_000.0,
+            poisson_ratio: 0.3,
+            areal_density: 0.25,
+            self_weight: false,
+        }
     }
+}
+
+/// The membrane model of the simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MaterialModel {
+    /// St. Venant–Kirchhoff with the tension-field (wrinkling) relaxation: fabric carries no
+    /// compression.
+    TensionField,
+    /// Plain St. Venant–Kirchhoff (carries compression; slow or stalling where fabric would
+    /// wrinkle).
+    Stvk,
 }
 
 /// `[infill]`: the liquid cast.
@@ -249,7 +269,7 @@ pub struct SuspensionSection {
 
 impl Default for SuspensionSection {
     fn default() -> Self {
-        Self { mode: SuspensionMode::TopBand, band: 0.02, vertices: Vec::new() }
+        Self { mode: SuspensionMode::TopBand, band: 0.05, vertices: Vec::new() }
     }
 }
 

@@ -10,6 +10,7 @@ mod config;
 mod failure;
 mod input;
 mod progress;
+mod stages;
 mod summary;
 
 use clap::Parser;

@@ -18,6 +18,9 @@ pub struct Stages {
     /// Reading, validating, repairing and scaling the mesh.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub input: Option<StageTime>,
+    /// The simulation of the filled mold.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub simulation: Option<StageTime>,
 }
 
 /// The whole summary.
@@ -31,6 +34,9 @@ pub struct Summary {
     pub scenario: Config,
     /// Stage timings.
     pub stages: Stages,
+    /// The simulation of the filled mold.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub simulation: Option<clothcast_sim::SimStats>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

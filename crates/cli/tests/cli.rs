@@ -149,12 +149,16 @@ fn run_refuses_bad_input_without_touching_outputs() {
         assert!(text(&o).contains(needle), "{file}: {}", text(&o));
     }
     assert_eq!(std::fs::read(&summary).unwrap(), b"{\"previous\": true}");
-    // With --repair the NaN mesh becomes usable (an open surface remains).
+    // With --repair the NaN mesh becomes usable: an open surface remains, held at its rim.
+    let cfg = out.join("rim.toml");
+    std::fs::write(&cfg, "[suspension]\nmode = \"boundary\"\n").unwrap();
     let o = run(&[
         "run",
         "-q",
         "--repair",
         data("handmade/nan_coordinate.obj").to_str().unwrap(),
+        "-c",
+        cfg.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);

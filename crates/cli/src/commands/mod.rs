@@ -1,5 +1,6 @@
 //! The subcommands.
 
+pub mod bench;
 pub mod check;
 pub mod run;
 
@@ -16,8 +17,10 @@ use std::path::Path;
 pub fn dispatch(cli: &Cli) -> Result<(), Failure> {
     let progress = Progress::new(cli.quiet);
     match &cli.command {
-        Command::Run(a) => run::run(a, &progress),
+        Command::Run(a) => run::run(a, &progress, run::Until::All),
+        Command::Simulate(a) => run::run(a, &progress, run::Until::Simulation),
         Command::Check(a) => check::check(a, &progress),
+        Command::Bench(a) => bench::bench(a, &progress),
         Command::Example(a) => write_example(&a.out, &progress),
         Command::Config(a) => match &a.out {
             Some(p) => write_atomic(p, |w| std::io::Write::write_all(w, TEMPLATE.as_bytes()))
@@ -51,6 +54,9 @@ pub fn resolve_scenario(args: &RunArgs) -> Result<(Config, RepairOptions), Failu
     apply_mesh_flags(&mut cfg, &args.mesh)?;
     if let Some(s) = args.seed {
         cfg.seed = s;
+    }
+    if args.allow_unconverged {
+        cfg.solver.allow_unconverged = true;
     }
     cfg.check(None, "command line").input()?;
     Ok((cfg, repair_options(&args.mesh)))

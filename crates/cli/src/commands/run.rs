@@ -1,17 +1,28 @@
-//! `clothcast run`: every stage that exists, every output, summary.json.
+//! `clothcast run` (every stage) and the single-stage commands (`simulate`, ...): each runs the
+//! pipeline up to its stage, writes that stage's files and `summary.json`.
 
 use crate::args::RunArgs;
 use crate::commands::resolve_scenario;
 use crate::failure::{Blame, Failure};
 use crate::input;
 use crate::progress::Progress;
+use crate::stages;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
 use clothcast_mesh::io::write_atomic;
 use std::time::Instant;
 
-/// Run the pipeline.
-pub fn run(args: &RunArgs, progress: &Progress) -> Result<(), Failure> {
+/// The last stage to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Until {
+    /// Stop after the simulation.
+    Simulation,
+    /// Every stage that exists.
+    All,
+}
+
+/// Run the pipeline up to `until`.
+pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Failure> {
     let t0 = Instant::now();
     let (cfg, repair) = resolve_scenario(args)?;
     let mut stages = Stages::default();
@@ -41,15 +52,22 @@ pub fn run(args: &RunArgs, progress: &Progress) -> Result<(), Failure> {
     for line in input.repairs.lines() {
         progress.say(format!("repair: {line}"));
     }
-
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))
         .internal()?;
+
+    // Stage 1: simulation.
+    let sim = stages::simulation::run(&cfg, &input, progress)?;
+    stages.simulation = Some(StageTime { seconds: sim.stats.seconds });
+    stages::simulation::write_outputs(&args.out, &input, &sim)?;
+    let _ = until;
+
     let summary = Summary {
         version: env!("CARGO_PKG_VERSION"),
         input: input.summary(),
         scenario: cfg,
         stages,
+        simulation: Some(sim.stats.clone()),
         seconds_total: t0.elapsed().as_secs_f64(),
     };
     let path = args.out.join("summary.json");
@@ -57,6 +75,6 @@ pub fn run(args: &RunArgs, progress: &Progress) -> Result<(), Failure> {
     write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()?;
-    progress.say(format!("wrote {}", path.display()));
+    progress.say(format!("wrote {} (and deformed.ply)", path.display()));
     Ok(())
 }

@@ -1,0 +1,125 @@
+//! Stage 1: the filled mold's equilibrium (`deformed.ply`, summary `simulation`).
+
+use crate::config::{self, Config, MaterialModel, SuspensionMode};
+use crate::failure::{Blame, Failure};
+use crate::input::Input;
+use crate::progress::Progress;
+use anyhow::{Context, anyhow};
+use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
+use clothcast_mesh::{Vec3, VertexId};
+use clothcast_sim::loads::Plane;
+use clothcast_sim::material::{Material, StVenantKirchhoff, WrinklingStVenantKirchhoff};
+use clothcast_sim::newton::NewtonOptions;
+use clothcast_sim::{FillLevel, Scenario, SimResult, Suspension, simulate};
+use std::path::Path;
+
+/// The library scenario of a configuration.
+pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
+    let suspension = match cfg.suspension.mode {
+        SuspensionMode::TopBand => Suspension::TopBand { band: cfg.suspension.band },
+        SuspensionMode::Boundary => Suspension::Boundary,
+        SuspensionMode::None => Suspension::None,
+        SuspensionMode::Vertices => {
+            // Ids are those of the input file; map them through any repair.
+            let mut of_input = vec![None; input.vertex_to_input.iter().map(|&v| v as usize + 1).max().unwrap_or(0)];
+            for (i, &v) in input.vertex_to_input.iter().enumerate() {
+                of_input[v as usize].get_or_insert(VertexId::new(i));
+            }
+            let mut vs = Vec::new();
+            for &v in &cfg.suspension.vertices {
+                match of_input.get(v as usize).copied().flatten() {
+                    Some(m) => vs.push(m),
+                    None => {
+                        return Err(Failure::Input(anyhow!(
+                            "suspension.vertices: vertex {v} is not in the (repaired) mesh, which has {} vertices",
+                            input.mesh.n_vertices()
+                        )));
+                    }
+                }
+            }
+            Suspension::Vertices(vs)
+        }
+    };
+    Ok(Scenario {
+        up: input.up,
+        infill_density: cfg.infill.density,
+        fill_level: match cfg.infill.fill_level {
+            config::FillLevel::Top => FillLevel::Top,
+            config::FillLevel::Height(h) => FillLevel::Height(h),
+        },
+        head_pressure: cfg.infill.head_pressure,
+        self_weight: cfg.material.self_weight.then_some(cfg.material.areal_density),
+        suspension,
+        supports: cfg.supports.iter().map(|s| Plane::new(Vec3::from(s.point), Vec3::from(s.normal))).collect(),
+        gravity: clothcast_sim::scenario::GRAVITY,
+        newton: NewtonOptions {
+            tolerance: cfg.solver.tolerance,
+            max_iterations: cfg.solver.max_iterations,
+            ..Default::default()
+        },
+    })
+}
+
+/// Run the simulation, refuse a non-converged result unless allowed.
+pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult, Failure> {
+    let sc = scenario(cfg, input)?;
+    let (y, nu) = (cfg.material.youngs_modulus, cfg.material.poisson_ratio);
+    let material: Box<dyn Material> = match cfg.material.model {
+        MaterialModel::TensionField => Box::new(WrinklingStVenantKirchhoff::from_young_poisson(y, nu)),
+        MaterialModel::Stvk => Box::new(StVenantKirchhoff::from_young_poisson(y, nu)),
+    };
+    let stage = progress.stage("simulating the filled mold");
+    let result = simulate(&input.mesh, material.as_ref(), &sc, &mut |it| {
+        stage.set_message(format!("simulating: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
+    })
+    .map_err(|e| if e.is_input_error() { Failure::Input(e.into()) } else { Failure::Internal(e.into()) })?;
+    drop(stage);
+    let s = &result.stats;
+    if !s.converged {
+        let why = format!(
+            "the simulation did not converge ({:?} after {} Newton iterations, relative residual {:.2e} > tolerance {:.1e})",
+            s.termination, s.newton_iterations, s.residual_rel, cfg.solver.tolerance
+        );
+        if !cfg.solver.allow_unconverged {
+            return Err(Failure::Internal(anyhow!(
+                "{why}; raise [solver] max_iterations, check the scenario, or pass --allow-unconverged to continue anyway"
+            )));
+        }
+        tracing::warn!("{why}; continuing because allow_unconverged is set");
+        progress.say(format!("warning: {why}; continuing (--allow-unconverged)"));
+    }
+    progress.say(format!(
+        "simulation: {} in {} Newton iterations (residual {:.1e}), max displacement {:.2} mm, liquid {:.2} L, max pressure {:.0} Pa, {:.2} s",
+        if s.converged { "converged" } else { "NOT converged" },
+        s.newton_iterations,
+        s.residual_rel,
+        s.max_displacement_m * 1e3,
+        s.liquid_volume_m3 * 1e3,
+        s.pressure_max_pa,
+        s.seconds
+    ));
+    Ok(result)
+}
+
+/// Write `deformed.ply`: equilibrium positions in the input's units (same vertex and face
+/// order as the target), per-vertex displacement (m) and per-face λ1, λ2.
+pub fn write_outputs(out: &Path, input: &Input, result: &SimResult) -> Result<(), Failure> {
+    let m = &input.mesh;
+    let pos: Vec<Vec3> = result.positions.iter().map(|p| p / input.to_metres).collect();
+    let disp: Vec<Vec3> = m.vertices().map(|v| result.positions[v] - m.position(v)).collect();
+    let tris: Vec<[u32; 3]> = m.faces().iter().map(|t| t.map(|v| v.0)).collect();
+    let mut vattr = vec![Attribute::f64("displacement", disp.iter().map(|d| d.norm()).collect())];
+    vattr.extend(Attribute::vec3("displacement", &disp));
+    let fattr = [
+        Attribute::f64("lambda1", result.stretch.iter().map(|s| s[0]).collect()),
+        Attribute::f64("lambda2", result.stretch.iter().map(|s| s[1]).collect()),
+    ];
+    let comment = format!(
+        "clothcast deformed mold (equilibrium under infill)\ncoordinates in input units ({} m per unit); displacement in metres\nlambda1 >= lambda2: squared principal stretches per face",
+        input.to_metres
+    );
+    let path = out.join("deformed.ply");
+    write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, &comment, &pos, &tris, &vattr, &fattr))
+        .with_context(|| format!("cannot write {}", path.display()))
+        .internal()
+}

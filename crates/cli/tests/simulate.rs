@@ -1,0 +1,168 @@
+//! End-to-end tests of the simulation stage through the binary.
+
+use clothcast_mesh::io::read_ply_properties;
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn data(rel: &str) -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel)
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("clothcast-sim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_clothcast")).args(args).output().expect("binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+fn summary(dir: &std::path::Path) -> Value {
+    serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn simulate_writes_deformed_mesh_and_summary() {
+    let out = tmpdir("basic");
+    let o = run(&["simulate", "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = summary(&out);
+    let sim = &s["simulation"];
+    for k in [
+        "converged",
+        "newton_iterations",
+        "residual_rel",
+        "max_displacement_m",
+        "mean_displacement_m",
+        "fixed_vertices",
+        "liquid_volume_m3",
+        "pressure_max_pa",
+        "seconds",
+    ] {
+        assert!(!sim[k].is_null(), "simulation.{k} missing");
+    }
+    assert_eq!(sim["converged"], true);
+    assert!(sim["residual_rel"].as_f64().unwrap() <= 1e-8);
+    assert!(sim["liquid_volume_m3"].as_f64().unwrap() > 0.01);
+    // ρ g h at the bottom of a 0.5 m mold filled to the top.
+    let pmax = sim["pressure_max_pa"].as_f64().unwrap();
+    assert!((pmax - 1460.0 * 9.81 * 0.5).abs() < 0.05 * pmax, "{pmax}");
+    assert!(s["stages"]["simulation"]["seconds"].as_f64().unwrap() > 0.0);
+
+    // deformed.ply: same vertex and face order as the target, properties present.
+    let bytes = std::fs::read(out.join("deformed.ply")).unwrap();
+    let deformed = clothcast_mesh::io::read_ply(&bytes, "deformed.ply").unwrap();
+    let target = clothcast_mesh::shapes::rounded_tetrahedron(0.5);
+    assert_eq!(deformed.triangles, target.to_soup().triangles);
+    let props = read_ply_properties(&bytes, "deformed.ply").unwrap();
+    let disp = &props["vertex"]["displacement"];
+    let dx = &props["vertex"]["displacement_x"];
+    assert_eq!(disp.len(), target.n_vertices());
+    for (i, p) in deformed.positions.iter().enumerate() {
+        let d = (p - target.position(clothcast_mesh::VertexId::new(i))).norm();
+        assert!((d - disp[i]).abs() < 1e-9, "vertex {i}");
+        assert!(dx[i].abs() <= disp[i] + 1e-12);
+    }
+    let (l1, l2) = (&props["face"]["lambda1"], &props["face"]["lambda2"]);
+    assert_eq!(l1.len(), target.n_faces());
+    assert!(l1.iter().zip(l2).all(|(a, b)| a >= b && *b > 0.0));
+    let max_disp = disp.iter().copied().fold(0.0, f64::max);
+    assert!((max_disp - sim["max_displacement_m"].as_f64().unwrap()).abs() < 1e-12);
+}
+
+#[test]
+fn non_convergence_is_an_error_unless_allowed() {
+    let out = tmpdir("nonconv");
+    let cfg = out.join("c.toml");
+    std::fs::write(&cfg, "[solver]\nmax_iterations = 2\n").unwrap();
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("did not converge") && text(&o).contains("--allow-unconverged"), "{}", text(&o));
+    assert!(!out.join("deformed.ply").exists());
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "--allow-unconverged", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = summary(&out);
+    assert_eq!(s["simulation"]["converged"], false);
+    assert_eq!(s["simulation"]["termination"], "max_iterations");
+}
+
+#[test]
+fn scenario_errors_exit_2() {
+    let out = tmpdir("scen");
+    // Inward-oriented closed mesh: refused, fixed by --repair.
+    let o = run(&["simulate", "-q", data("handmade/tet_inward.obj").to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("oriented inward"), "{}", text(&o));
+    let o = run(&[
+        "simulate",
+        "-q",
+        "--repair",
+        data("handmade/tet_inward.obj").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // An open dome with its opening below the fill level: the liquid would spill.
+    let o = run(&["simulate", "-q", data("open/hemisphere.off").to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("spill"), "{}", text(&o));
+    // The same dome hung upside down and held at its rim works.
+    let cfg = out.join("bowl.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[mesh]\npath = \"{}\"\nup = \"-z\"\nheight = 0.3\n[suspension]\nmode = \"boundary\"\n",
+            data("open/hemisphere.off").display()
+        ),
+    )
+    .unwrap();
+    let o = run(&["simulate", "-q", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(summary(&out)["simulation"]["converged"], true);
+    // Suspension vertex that does not exist.
+    std::fs::write(&cfg, "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n").unwrap();
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("99999"), "{}", text(&o));
+}
+
+#[test]
+fn supports_and_explicit_vertices() {
+    let out = tmpdir("sup");
+    let cfg = out.join("c.toml");
+    // A floor 2 mm below the example's tip (its tip rises: no contact, but the support is
+    // parsed, checked and reported), then six explicit clamped vertices with a partial fill.
+    std::fs::write(&cfg, "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n").unwrap();
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = summary(&out);
+    assert_eq!(s["simulation"]["support_forces_n"].as_array().unwrap().len(), 1);
+    assert_eq!(s["scenario"]["supports"][0]["normal"], serde_json::json!([0.0, 0.0, 1.0]));
+    std::fs::write(
+        &cfg,
+        "[suspension]\nmode = \"vertices\"\nvertices = [0, 1, 2, 3, 4, 5]\n[infill]\nfill_level = 0.3\n",
+    )
+    .unwrap();
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "--allow-unconverged", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(summary(&out)["simulation"]["fixed_vertices"], 6);
+}
+
+#[test]
+fn bench_reports_iterations_and_factorization_floor() {
+    let o = run(&["bench", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let row = &v[0];
+    assert_eq!(row["converged"], true);
+    assert!(row["newton_iterations"].as_u64().unwrap() > 0);
+    assert!(row["factorization_seconds"].as_f64().unwrap() > 0.0);
+    assert!(row["seconds"].as_f64().unwrap() >= row["seconds_in_factorizations"].as_f64().unwrap());
+}
