@@ -33,6 +33,8 @@ pub enum Command {
     Run(RunArgs),
     /// Run only the simulation of the filled mold: writes deformed.ply and summary.json.
     Simulate(RunArgs),
+    /// Run the simulation and the cross field: adds strain_raw.ply and cross_field.ply.
+    Field(RunArgs),
     /// Validate a mesh and print its topology and every problem found.
     ///
     /// Exit code 0 if the mesh is usable (with the given --repair/--largest-component), 2 if not.

@@ -28,6 +28,8 @@ pub struct Config {
     pub supports: Vec<Support>,
     /// Static equilibrium solver.
     pub solver: SolverSection,
+    /// Cross field.
+    pub field: FieldSection,
 }
 
 impl Default for Config {
@@ -40,6 +42,37 @@ impl Default for Config {
             suspension: SuspensionSection::default(),
             supports: Vec::new(),
             solver: SolverSection::default(),
+            field: FieldSection::default(),
+        }
+    }
+}
+
+/// `[field]`: the cross field seams and fibres follow.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FieldSection {
+    /// "strain" (the paper's method) or "curvature" (what garment tools use).
+    pub source: clothcast_field::synthesis::FieldSource,
+    /// A face is anisotropic when (e1 − e2)/(|e1| + |e2| + median) of its principal strains
+    /// exceeds this.
+    pub anisotropy_threshold: f64,
+    /// Weight of the alignment to the raw field in the denoising pass (paper Eq. 7).
+    pub alpha: f64,
+    /// Singularities closer than this fraction of the bounding-box diagonal may be combined.
+    pub relax_radius: f64,
+    /// Largest rise of the field energy accepted for merging two valence-5 singularities.
+    pub relax_merge_energy: f64,
+}
+
+impl Default for FieldSection {
+    fn default() -> Self {
+        let d = clothcast_field::FieldOptions::default();
+        Self {
+            source: d.source,
+            anisotropy_threshold: d.anisotropy_threshold,
+            alpha: d.alpha,
+            relax_radius: d.relax_radius,
+            relax_merge_energy: d.relax_merge_energy,
         }
     }
 }
@@ -436,6 +469,20 @@ impl Config {
         if self.solver.max_iterations == 0 {
             return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
         }
+        let f = &self.field;
+        if !(0.0..=1.0).contains(&f.anisotropy_threshold) {
+            return Err(err("field", "anisotropy_threshold", f.anisotropy_threshold.to_string(), "must lie in [0, 1]"));
+        }
+        non_negative("field", "alpha", f.alpha)?;
+        if !(0.0..=1.0).contains(&f.relax_radius) {
+            return Err(err(
+                "field",
+                "relax_radius",
+                f.relax_radius.to_string(),
+                "must lie in [0, 1] (a fraction of the bounding-box diagonal)",
+            ));
+        }
+        non_negative("field", "relax_merge_energy", f.relax_merge_energy)?;
         Ok(())
     }
 }

@@ -21,6 +21,9 @@ pub struct Stages {
     /// The simulation of the filled mold.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub simulation: Option<StageTime>,
+    /// The cross field.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<StageTime>,
 }
 
 /// The whole summary.
@@ -37,6 +40,9 @@ pub struct Summary {
     /// The simulation of the filled mold.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub simulation: Option<clothcast_sim::SimStats>,
+    /// The cross field.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<clothcast_field::FieldStats>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

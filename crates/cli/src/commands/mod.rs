@@ -19,6 +19,7 @@ pub fn dispatch(cli: &Cli) -> Result<(), Failure> {
     match &cli.command {
         Command::Run(a) => run::run(a, &progress, run::Until::All),
         Command::Simulate(a) => run::run(a, &progress, run::Until::Simulation),
+        Command::Field(a) => run::run(a, &progress, run::Until::Field),
         Command::Check(a) => check::check(a, &progress),
         Command::Bench(a) => bench::bench(a, &progress),
         Command::Example(a) => write_example(&a.out, &progress),

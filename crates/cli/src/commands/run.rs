@@ -17,6 +17,8 @@ use std::time::Instant;
 pub enum Until {
     /// Stop after the simulation.
     Simulation,
+    /// Stop after the cross field.
+    Field,
     /// Every stage that exists.
     All,
 }
@@ -60,7 +62,18 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     let sim = stages::simulation::run(&cfg, &input, progress)?;
     stages.simulation = Some(StageTime { seconds: sim.stats.seconds });
     stages::simulation::write_outputs(&args.out, &input, &sim)?;
-    let _ = until;
+    let mut written = vec!["deformed.ply"];
+
+    // Stage 2: the cross field.
+    let field = if until >= Until::Field {
+        let f = stages::field::run(&cfg, &input, &sim, progress)?;
+        stages.field = Some(StageTime { seconds: f.stats.seconds });
+        stages::field::write_outputs(&args.out, &input, &f)?;
+        written.extend(["strain_raw.ply", "cross_field.ply"]);
+        Some(f)
+    } else {
+        None
+    };
 
     let summary = Summary {
         version: env!("CARGO_PKG_VERSION"),
@@ -68,6 +81,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         scenario: cfg,
         stages,
         simulation: Some(sim.stats.clone()),
+        field: field.map(|f| f.stats),
         seconds_total: t0.elapsed().as_secs_f64(),
     };
     let path = args.out.join("summary.json");
@@ -75,6 +89,11 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()?;
-    progress.say(format!("wrote {} (and deformed.ply)", path.display()));
+    progress.say(format!(
+        "wrote {} and {} in {}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("summary.json"),
+        written.join(", "),
+        args.out.display()
+    ));
     Ok(())
 }

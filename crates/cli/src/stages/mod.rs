@@ -1,4 +1,5 @@
 //! Pipeline stages as the CLI runs them: each maps the scenario to the stage's library call,
 //! writes the stage's files and returns its summary section.
 
+pub mod field;
 pub mod simulation;
