@@ -1,9 +1,29 @@
 //! # clothcast-flatten
 //!
-//! Flattening of every patch with Boundary First Flattening and orientation on the fabric's warp/weft (paper §6.3, §6.4).
+//! The flattening stage of the pipeline (paper §6.3): every patch of the segmented surface
+//! becomes a flat sewing-pattern piece. Input: one disk-topology patch (a [`clothcast_mesh::Mesh`],
+//! usually a [`clothcast_mesh::submesh::Submesh`] of the segmented target); output: a 2D
+//! position per vertex in metres and distortion statistics.
 //!
-//! Input: the segmented mesh. Output: per-patch 2D coordinates in metres and distortion statistics.
+//! - [`bff`]: Boundary First Flattening (Sawhney & Crane 2017) in its minimal-area-distortion
+//!   mode — zero boundary scale factors, so every boundary edge keeps its 3D length (up to the
+//!   small correction that closes the boundary curve, reported in [`FlatteningStats`]) and the
+//!   two sides of a seam stay the same length; [`distortion`] measures any 2D layout.
+//! - [`error`]: the error type, [`FlattenError`].
 //!
-//! This stage is not built yet: the crate holds its place in the pipeline (see
-//! `docs/ARCHITECTURE.md`) and will carry its types and algorithms when its issue lands.
-//! It deliberately exports nothing rather than a placeholder.
+//! Orientation of each piece on the fabric's warp/weft (paper §6.4) will come later in this
+//! crate.
+//!
+//! ```
+//! use clothcast_flatten::{bff_flatten, BffOptions};
+//! let patch = clothcast_mesh::shapes::grid(8, 6, 0.4, 0.3);
+//! let flat = bff_flatten(&patch, &BffOptions::default()).unwrap();
+//! assert_eq!(flat.stats.flipped_triangles, 0);
+//! assert!((flat.stats.area_ratio - 1.0).abs() < 1e-9);
+//! ```
+
+pub mod bff;
+pub mod error;
+
+pub use bff::{BffOptions, Flattening, FlatteningStats, bff_flatten, distortion};
+pub use error::FlattenError;

@@ -1,0 +1,38 @@
+//! The flatten crate's error type.
+//!
+//! Every variant names the value that made the input unusable: a patch that is not a disk
+//! (its Euler characteristic and boundary count), a sparse-solver failure, or geometry for
+//! which no finite flattening can be computed.
+
+use clothcast_mesh::sparse::SolveError;
+
+/// What can go wrong flattening a patch.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FlattenError {
+    /// BFF needs a disk: exactly one boundary loop and χ = V − E + F = 1.
+    #[error("the patch is not a disk: χ = {euler}, {boundary_loops} boundary loop(s) (expected χ = 1 and one loop)")]
+    NotADisk {
+        /// Euler characteristic of the patch.
+        euler: i64,
+        /// Number of boundary loops.
+        boundary_loops: usize,
+    },
+    /// χ = 1 and one boundary loop, but several components (a disk plus closed surfaces of
+    /// total χ = 0, e.g. a torus).
+    #[error("the patch has {components} components (expected one disk)")]
+    Disconnected {
+        /// Number of edge-connected components.
+        components: usize,
+    },
+    /// The sparse solver failed, even with the largest allowed regularisation.
+    #[error("flattening solver failure: {0}")]
+    Solver(#[from] SolveError),
+    /// The geometry is numerically impossible to flatten (non-finite values, a boundary curve
+    /// whose tangents cannot be closed).
+    #[error("degenerate patch: {reason}")]
+    Degenerate {
+        /// What went wrong.
+        reason: String,
+    },
+}
