@@ -1,0 +1,382 @@
+//! The pattern: pieces with sew and cut lines, notches, labels, grain arrows and marks, nested
+//! on the roll; [`build_pattern`] builds it from the flattened pieces (paper §7.1 (A)).
+//!
+//! Data flow per piece: validated outline → cut line ([`crate::offset`]) → notches on every
+//! seam side ([`crate::seams`], ticks ending on the cut line) → an interior anchor point
+//! (approximate pole of inaccessibility) carrying the grain arrow and the name/area labels →
+//! seam labels inside the piece near each side's midpoint → marks copied. Then all pieces are
+//! nested ([`crate::nest`]) and the statistics gathered.
+//!
+//! Complexity: O(n log n) per piece for the offset, O(G² · n) for the anchor search (G = 24
+//! grid steps), plus nesting; all sequential and deterministic.
+
+use serde::Serialize;
+
+use crate::error::PatternError;
+use crate::geom::{
+    BBox, P2, add, axpy, centroid, dist_point_boundary, normalize, point_in_polygon, ray_hit, rotate_quarter,
+    segment_inside, signed_area,
+};
+use crate::input::{PatternOptions, PieceInput, PointMark};
+use crate::nest::nest_polygons;
+use crate::offset::offset_polygon;
+use crate::seams::{SidePath, interior_notch_count_f64, notch_params, seam_length_mismatch};
+use crate::validate::validate;
+
+/// Most notches one seam may get before [`PatternError::TooManyNotches`].
+pub const MAX_NOTCHES_PER_SEAM: usize = 10_000;
+
+/// Longest grain arrow (mm).
+pub const GRAIN_ARROW_MAX_MM: f64 = 200.0;
+
+/// A text to print, centred on `position`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Text {
+    /// The text (UTF-8; writers encode it for their format).
+    pub text: String,
+    /// Centre of the text box.
+    pub position: P2,
+    /// Capital letter height (mm).
+    pub height: f64,
+    /// Baseline direction, degrees counter-clockwise from +x.
+    pub angle_deg: f64,
+}
+
+/// A match mark on a seam side.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Notch {
+    /// Seam id.
+    pub seam: usize,
+    /// Index along the seam: 0 at its 3D start, `count − 1` at its end; notch k of one side
+    /// meets notch k of the other.
+    pub index: usize,
+    /// Normalised arc length along the seam, in [0, 1].
+    pub t: f64,
+    /// The point on the sew line.
+    pub position: P2,
+    /// Outward unit normal of the sew line there.
+    pub normal: P2,
+    /// The slit as drawn: from the cut line inwards along `-normal`, `notch_length_mm` long
+    /// (shorter if the allowance is).
+    pub tick: [P2; 2],
+}
+
+/// The grain line: along +x (the warp) in piece coordinates.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GrainArrow {
+    /// Tail.
+    pub start: P2,
+    /// Head (tip).
+    pub end: P2,
+    /// Arrowhead polyline: barb, tip, barb.
+    pub head: [P2; 3],
+}
+
+/// Where a piece lies on the roll: `roll = rotate(piece, rotation_deg) + offset`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Placement {
+    /// Counter-clockwise quarter turn: 0, 90, 180 or 270.
+    pub rotation_deg: u16,
+    /// Translation after the rotation (mm).
+    pub offset: P2,
+}
+
+impl Placement {
+    /// The roll coordinates of a piece point.
+    pub fn apply(&self, p: P2) -> P2 {
+        add(rotate_quarter(p, self.rotation_deg), self.offset)
+    }
+}
+
+/// One pattern piece, in piece coordinates (mm, warp along +x), and its place on the roll.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Piece {
+    /// Patch id (from the input).
+    pub id: usize,
+    /// Name (from the input).
+    pub name: String,
+    /// Sew line (the input outline), counter-clockwise.
+    pub sew: Vec<P2>,
+    /// Cut line: the sew line offset by the seam allowance, counter-clockwise, simple.
+    pub cut: Vec<P2>,
+    /// Area inside the sew line (mm²): the finished piece.
+    pub sew_area_mm2: f64,
+    /// Area inside the cut line (mm²): the fabric used.
+    pub cut_area_mm2: f64,
+    /// Match marks of all seam sides, by side then along the seam.
+    pub notches: Vec<Notch>,
+    /// One label per seam side, inside the piece near the side's midpoint.
+    pub seam_labels: Vec<Text>,
+    /// The grain line.
+    pub grain: GrainArrow,
+    /// Name, then area in m² (3 decimals), below the grain arrow.
+    pub labels: Vec<Text>,
+    /// Marked points (from the input).
+    pub marks: Vec<PointMark>,
+    /// Place on the roll.
+    pub placement: Placement,
+}
+
+impl Piece {
+    /// The roll coordinates of a point given in this piece's coordinates.
+    pub fn to_roll(&self, p: P2) -> P2 {
+        self.placement.apply(p)
+    }
+
+    /// The cut line on the roll.
+    pub fn placed_cut(&self) -> Vec<P2> {
+        self.cut.iter().map(|&p| self.to_roll(p)).collect()
+    }
+
+    /// The sew line on the roll.
+    pub fn placed_sew(&self) -> Vec<P2> {
+        self.sew.iter().map(|&p| self.to_roll(p)).collect()
+    }
+}
+
+/// Summary figures of a pattern.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PatternStats {
+    /// Number of pieces.
+    pub pieces: usize,
+    /// Number of seams (each with two sides).
+    pub seams: usize,
+    /// Number of notches over all sides.
+    pub notches: usize,
+    /// Largest `|L₁ − L₂| / mean` over the seams (see [`seam_length_mismatch`]).
+    pub seam_length_mismatch_max_rel: f64,
+    /// Total area inside the sew lines (mm²): the finished surface.
+    pub area_mm2_total: f64,
+    /// Total area inside the cut lines (mm²): the fabric in the pieces.
+    pub cut_area_mm2_total: f64,
+}
+
+/// A nested sewing pattern.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Pattern {
+    /// The pieces, in input order.
+    pub pieces: Vec<Piece>,
+    /// Roll width (roll y in `[0, width]`).
+    pub fabric_width_mm: f64,
+    /// Used roll length (roll x in `[0, length]`).
+    pub fabric_length_mm: f64,
+    /// Σ cut areas / (width × length).
+    pub utilisation: f64,
+    /// Summary figures.
+    pub stats: PatternStats,
+}
+
+/// Builds the pattern: validates the input (see [`PatternError`]), offsets every sew line by
+/// the seam allowance, places the notches, labels and grain arrows, and nests the pieces on
+/// the roll. Never panics on bad input.
+pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pattern, PatternError> {
+    let seams = validate(pieces, opts)?;
+    let r = opts.seam_allowance_mm;
+    let th = opts.text_height_mm;
+
+    let mut cuts = Vec::with_capacity(pieces.len());
+    for p in pieces {
+        let cut = offset_polygon(&p.outline, r).ok_or(PatternError::OffsetFailed { piece: p.id })?;
+        let b = BBox::of(&cut);
+        let (w, h) = (b.width(), b.height());
+        let width = opts.fabric_width_mm;
+        if h > width && (!opts.allow_weft_swap || w > width) {
+            return Err(PatternError::PieceTooWide {
+                piece: p.id,
+                name: p.name.clone(),
+                width_mm: w,
+                height_mm: h,
+                fabric_width_mm: width,
+                weft_swap: opts.allow_weft_swap,
+            });
+        }
+        cuts.push(cut);
+    }
+
+    // Notches, seam by seam so that both sides share the parameters.
+    let mut notches: Vec<Vec<(usize, Notch)>> = vec![Vec::new(); pieces.len()];
+    for (&seam, sides) in &seams {
+        let paths: Vec<SidePath> = sides
+            .iter()
+            .map(|&(pi, si)| SidePath::new(&pieces[pi].outline, &pieces[pi].seams[si]))
+            .collect::<Option<_>>()
+            .ok_or(PatternError::EmptySeamSide { piece: pieces[sides[0].0].id, seam, index: 0 })?;
+        let mean = paths.iter().map(SidePath::length).sum::<f64>() / paths.len() as f64;
+        let count = interior_notch_count_f64(mean, opts.notch_spacing_mm);
+        if count > MAX_NOTCHES_PER_SEAM as f64 {
+            return Err(PatternError::TooManyNotches { seam, count, limit: MAX_NOTCHES_PER_SEAM });
+        }
+        let params = notch_params(mean, opts.notch_spacing_mm);
+        for (&(pi, si), path) in sides.iter().zip(&paths) {
+            for (index, &t) in params.iter().enumerate() {
+                let (position, normal) = path.at(t * path.length());
+                let tick = notch_tick(position, normal, &cuts[pi], r, opts.notch_length_mm);
+                notches[pi].push((si, Notch { seam, index, t, position, normal, tick }));
+            }
+        }
+    }
+
+    let mut out = Vec::with_capacity(pieces.len());
+    for ((p, cut), mut pn) in pieces.iter().zip(cuts).zip(notches) {
+        pn.sort_by_key(|(si, n)| (*si, n.index));
+        let sew_area = signed_area(&p.outline);
+        let anchor = interior_anchor(&p.outline);
+        let grain = grain_arrow(&p.outline, anchor, th);
+        let labels = vec![
+            Text { text: p.name.clone(), position: axpy(anchor, -0.9, [0.0, th]), height: th, angle_deg: 0.0 },
+            Text {
+                text: format!("{:.3} m²", sew_area * 1e-6),
+                position: axpy(anchor, -2.3, [0.0, th]),
+                height: 0.8 * th,
+                angle_deg: 0.0,
+            },
+        ];
+        let seam_labels = p
+            .seams
+            .iter()
+            .filter_map(|s| SidePath::new(&p.outline, s).map(|path| seam_label(&path, &s.label, &p.outline, th)))
+            .collect();
+        out.push(Piece {
+            id: p.id,
+            name: p.name.clone(),
+            sew: p.outline.clone(),
+            cut_area_mm2: signed_area(&cut),
+            cut,
+            sew_area_mm2: sew_area,
+            notches: pn.into_iter().map(|(_, n)| n).collect(),
+            seam_labels,
+            grain,
+            labels,
+            marks: p.marks.clone(),
+            placement: Placement { rotation_deg: 0, offset: [0.0, 0.0] },
+        });
+    }
+
+    // Nest the cut lines.
+    let cuts: Vec<Vec<P2>> = out.iter().map(|pc| pc.cut.clone()).collect();
+    let (placements, length) = nest_polygons(&cuts, opts.fabric_width_mm, opts.piece_gap_mm, opts.allow_weft_swap);
+    for (pc, pl) in out.iter_mut().zip(&placements) {
+        pc.placement = Placement { rotation_deg: pl.rotation_deg, offset: pl.offset };
+    }
+
+    let cut_total: f64 = out.iter().map(|p| p.cut_area_mm2).sum();
+    let stats = PatternStats {
+        pieces: out.len(),
+        seams: seams.len(),
+        notches: out.iter().map(|p| p.notches.len()).sum(),
+        seam_length_mismatch_max_rel: seam_length_mismatch(pieces),
+        area_mm2_total: out.iter().map(|p| p.sew_area_mm2).sum(),
+        cut_area_mm2_total: cut_total,
+    };
+    let utilisation = if length > 0.0 { cut_total / (opts.fabric_width_mm * length) } else { 0.0 };
+    Ok(Pattern { pieces: out, fabric_width_mm: opts.fabric_width_mm, fabric_length_mm: length, utilisation, stats })
+}
+
+/// The notch slit: from where the outward normal ray meets the cut line, inwards.
+fn notch_tick(position: P2, normal: P2, cut: &[P2], r: f64, len: f64) -> [P2; 2] {
+    if r == 0.0 {
+        return [position, position]; // no allowance, no slit (the notch keeps its position)
+    }
+    // The ray leaves from inside the cut polygon, so its first boundary hit is the cut line.
+    let reach = ray_hit(position, normal, cut, 1e-9 * r.max(1.0)).unwrap_or(r);
+    let outer = axpy(position, reach, normal);
+    [outer, axpy(outer, -len.min(reach), normal)]
+}
+
+/// An interior point far from the boundary (approximate pole of inaccessibility): the best
+/// point of a G×G grid over the bounding box, refined on a finer grid around it; ties go to
+/// the point nearer the centroid. Falls back to the centroid.
+pub fn interior_anchor(poly: &[P2]) -> P2 {
+    const G: usize = 24;
+    let b = BBox::of(poly);
+    let c = centroid(poly);
+    let score = |q: P2| -> Option<(f64, f64)> {
+        if !point_in_polygon(q, poly) {
+            return None;
+        }
+        let d = dist_point_boundary(q, poly);
+        let dc = (q[0] - c[0]).hypot(q[1] - c[1]);
+        // Prefer central points among nearly equally deep ones (quantised depth).
+        Some((d, -dc))
+    };
+    let better = |a: (f64, f64), bst: Option<(f64, f64)>| match bst {
+        None => true,
+        Some(bb) => a.0 > bb.0 * (1.0 + 1e-3) || (a.0 >= bb.0 * (1.0 - 1e-3) && a.1 > bb.1),
+    };
+    let mut best: Option<(f64, f64)> = None;
+    let mut best_p = c;
+    if let Some(s) = score(c) {
+        best = Some(s);
+    }
+    let (dx, dy) = (b.width() / G as f64, b.height() / G as f64);
+    for i in 0..G {
+        for j in 0..G {
+            let q = [b.min[0] + (i as f64 + 0.5) * dx, b.min[1] + (j as f64 + 0.5) * dy];
+            if let Some(s) = score(q)
+                && better(s, best)
+            {
+                best = Some(s);
+                best_p = q;
+            }
+        }
+    }
+    let center = best_p;
+    for i in 0..9 {
+        for j in 0..9 {
+            let q = [center[0] + (i as f64 - 4.0) * dx / 4.0, center[1] + (j as f64 - 4.0) * dy / 4.0];
+            if let Some(s) = score(q)
+                && better(s, best)
+            {
+                best = Some(s);
+                best_p = q;
+            }
+        }
+    }
+    best_p
+}
+
+/// The grain arrow above the anchor: along +x, `min(200 mm, half the piece's x extent)` long,
+/// shortened until it fits inside the piece.
+fn grain_arrow(poly: &[P2], anchor: P2, th: f64) -> GrainArrow {
+    let b = BBox::of(poly);
+    let mut len = GRAIN_ARROW_MAX_MM.min(0.5 * b.width());
+    let mut centre = axpy(anchor, 0.9, [0.0, th]);
+    for attempt in 0..8 {
+        let s = axpy(centre, -0.5 * len, [1.0, 0.0]);
+        let e = axpy(centre, 0.5 * len, [1.0, 0.0]);
+        if segment_inside(s, e, poly) {
+            break;
+        }
+        if attempt == 3 {
+            centre = anchor; // a narrow piece: try on the anchor itself
+        } else {
+            len *= 0.7;
+        }
+    }
+    let start = axpy(centre, -0.5 * len, [1.0, 0.0]);
+    let end = axpy(centre, 0.5 * len, [1.0, 0.0]);
+    let hl = (0.15 * len).min(0.8 * th);
+    let head = [add(end, [-hl, 0.4 * hl]), end, add(end, [-hl, -0.4 * hl])];
+    GrainArrow { start, end, head }
+}
+
+/// The label of a seam side: inside the piece, 1.2 text heights in from the side's midpoint,
+/// its baseline along the side (turned to read upright).
+fn seam_label(path: &SidePath, label: &str, poly: &[P2], th: f64) -> Text {
+    let (mid, n) = path.at(0.5 * path.length());
+    let mut position = axpy(mid, -1.2 * th, n);
+    if !point_in_polygon(position, poly) {
+        position = axpy(mid, -0.6 * th, n);
+    }
+    // Edge direction: the outward normal turned a quarter counter-clockwise.
+    let dir = normalize([-n[1], n[0]]);
+    let mut angle = dir[1].atan2(dir[0]).to_degrees();
+    if angle > 90.0 + 1e-9 {
+        angle -= 180.0;
+    } else if angle <= -90.0 + 1e-9 {
+        angle += 180.0;
+    }
+    // Snap the -0.0 and rounding noise of axis-aligned sides.
+    let angle = (angle * 1e9).round() / 1e9;
+    Text { text: label.to_string(), position, height: th, angle_deg: angle + 0.0 }
+}
