@@ -50,7 +50,8 @@ pub struct FieldOptions {
     /// Combine singularities closer than this fraction of the bounding-box diagonal (0: no
     /// relaxation).
     pub relax_radius: f64,
-    /// Largest rise of the pass-2 energy accepted for a merge of two valence-5 singularities.
+    /// Largest rise of the pass-2 energy accepted for one merge (two valence-5 into a valence-6)
+    /// or cancellation (a valence-3/valence-5 pair).
     pub relax_merge_energy: f64,
 }
 
