@@ -265,3 +265,62 @@ mod tests {
         assert!(m.min_angle().to_degrees() > 15.0, "min angle {}", m.min_angle().to_degrees());
     }
 }
+
+/// A sphere meshed from a cube: each cube face an `n × n` grid of quads, each quad split into
+/// four triangles around its centre (so the mesh has the cube's full symmetry), every vertex
+/// projected on the sphere of radius `r` (24·n² faces). Its 8 cube-corner vertices are where a
+/// smoothest cross field puts its 8 valence-3 singularities.
+pub fn cube_sphere(n: usize, r: f64) -> Mesh {
+    let n = n.max(1);
+    let mut index: HashMap<[i64; 3], u32> = HashMap::new();
+    let mut p: Vec<Vec3> = Vec::new();
+    let mut t: Vec<[u32; 3]> = Vec::new();
+    // Integer lattice coordinates in units of 1/(2n) of the half-edge, so quad centres are exact.
+    let mut vid = |key: [i64; 3], p: &mut Vec<Vec3>| -> u32 {
+        *index.entry(key).or_insert_with(|| {
+            let v = Vec3::new(key[0] as f64, key[1] as f64, key[2] as f64);
+            p.push(v.normalize() * r);
+            (p.len() - 1) as u32
+        })
+    };
+    let m = n as i64; // a face spans -m..=m in lattice units, 2 per quad
+    // (normal axis, sign, u axis, v axis) with u × v = sign · normal for outward orientation.
+    let faces: [(usize, i64, usize, usize); 6] =
+        [(0, 1, 1, 2), (0, -1, 2, 1), (1, 1, 2, 0), (1, -1, 0, 2), (2, 1, 0, 1), (2, -1, 1, 0)];
+    for (axis, sign, ua, va) in faces {
+        let at = |u: i64, v: i64| -> [i64; 3] {
+            let mut k = [0i64; 3];
+            k[axis] = sign * m;
+            k[ua] = u;
+            k[va] = v;
+            k
+        };
+        for i in 0..n as i64 {
+            for j in 0..n as i64 {
+                let (u0, v0) = (-m + 2 * i, -m + 2 * j);
+                let a = vid(at(u0, v0), &mut p);
+                let b = vid(at(u0 + 2, v0), &mut p);
+                let c = vid(at(u0 + 2, v0 + 2), &mut p);
+                let d = vid(at(u0, v0 + 2), &mut p);
+                let o = vid(at(u0 + 1, v0 + 1), &mut p);
+                t.extend([[a, b, o], [b, c, o], [c, d, o], [d, a, o]]);
+            }
+        }
+    }
+    Mesh::try_new(p, t).expect("cube sphere is valid")
+}
+
+#[cfg(test)]
+mod cube_sphere_tests {
+    use super::*;
+
+    #[test]
+    fn cube_sphere_is_a_closed_outward_sphere() {
+        let m = cube_sphere(4, 2.0);
+        assert_eq!(m.n_faces(), 24 * 16);
+        assert_eq!(m.euler_characteristic(), 2);
+        assert!(m.boundary_loops().is_empty());
+        assert!(m.signed_volume() > 0.0);
+        assert!(m.positions().iter().all(|p| (p.norm() - 2.0).abs() < 1e-12));
+    }
+}

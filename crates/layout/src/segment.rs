@@ -1,0 +1,1115 @@
+//! The segmentation pipeline (paper §6.1–§6.2): trace, cut to disks, merge, split, remove tiny
+//! patches, straighten and remesh, report.
+//!
+//! 1. **Trace** the separatrices of every singularity on a per-vertex cross field
+//!    ([`crate::trace`]); a singularity left without any seam is joined to the nearest seam or
+//!    boundary by a field-aligned shortest path (it must end up on a seam).
+//! 2. **Disks**: extra field-aligned cuts until every patch is a topological disk
+//!    ([`crate::cutgraph`]).
+//! 3. **Merge** (§6.2.2): adjacent patches whose union is a disk with exactly four corners, with
+//!    no singularity left inside and a developability score within `max_developability`, are
+//!    merged, flattest union first; dangling seams (a slit inside a patch, both sides the same
+//!    patch) are removed under the same conditions. The union's boundary is a subset of the
+//!    existing, field-traced seams, so it stays field-aligned.
+//! 4. **Split** (§6.2.3): a patch whose score exceeds `max_developability` is split in two disks
+//!    by spectral clustering, the seam traced along the field ([`crate::split`]), recursively.
+//!    Then non-quad patches with a concave corner (an L shape) are split from that corner along
+//!    the field, as Pietroni et al. 2016 complete their layouts.
+//! 5. **Tiny patches** (< `min_patch_fraction` of the area) are merged into the neighbour they
+//!    share the longest seam with (if the union is a disk and no singularity ends up inside).
+//! 6. **Smooth seams** (§6.2.1): split the seam network into chains between nodes
+//!    ([`crate::network`]), pin long chains every `pin_spacing` edge lengths, straighten them
+//!    together into geodesics with FlipOut ([`crate::flipout`]), and remesh the surface along
+//!    them ([`crate::remesh`]). Chains that touch after straightening (which FlipOut allows,
+//!    and which would pinch a patch) are pinned more and straightened again; if the patch
+//!    topology still changed, the traced seams are kept and the report says so.
+//! 7. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
+//!    per patch (counted in the field's quarter turns, see [`crate::patches::CornerRule`]),
+//!    quad fraction, singularities inside patches, seam length, seam–field deviation,
+//!    developability, smallest angles.
+//!
+//! Steps 3–5 run on the traced (jagged) seams, with corner angles measured between chords a few
+//! edges long, as the straightened seams will run; straightening and remeshing happen once, so
+//! remeshing never compounds.
+//!
+//! Complexity: tracing O(S · V log V) for S separatrices in the worst case; cutting, chains,
+//! remeshing O(F log F); FlipOut O(flips); merging O(merges · F_local log F); splitting one sparse
+//! factorization per split patch.
+
+use crate::LayoutError;
+use crate::cutgraph::{self, make_disks};
+use crate::developability::vertex_scores;
+use crate::flipout::{FlipOutOptions, straighten_network};
+use crate::network;
+use crate::patches::{CornerRule, RegionInfo, edge_between, patches, patches_with, region_info, seam_edges};
+use crate::remesh::{RemeshOptions, insert_polylines};
+use crate::split::{field_aligned_split, spectral_split};
+use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
+use crate::vertex_field::VertexField;
+use clothcast_field::{CrossField, Singularity};
+use clothcast_mesh::{EdgeData, EdgeId, FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Instant;
+
+/// Options of the segmentation (`[layout]` in the configuration).
+#[derive(Clone, Debug)]
+pub struct LayoutOptions {
+    /// D of the tracing cost `ℓ (1 + D (φ/φ_max)²)`.
+    pub drift_penalty: f64,
+    /// φ_max: largest deviation (degrees) of a traced step from the field.
+    pub max_deviation_deg: f64,
+    /// Capture radius of singularities during tracing, in mean edge lengths.
+    pub capture_radius: f64,
+    /// Straighten seams into geodesics and remesh along them.
+    pub smooth_seams: bool,
+    /// Straightened seams are geodesic between pins placed about this many mean edge lengths
+    /// apart along the traced seams (0: geodesic from node to node).
+    pub pin_spacing: f64,
+    /// Merge adjacent patches into quads.
+    pub merge: bool,
+    /// Largest patch developability score `∫ min(κ₁², κ₂²) dA` before a patch is split
+    /// (infinite: never split).
+    pub max_developability: f64,
+    /// Patches smaller than this share of the total area are merged into a neighbour.
+    pub min_patch_fraction: f64,
+    /// Remeshing snap distance (share of an edge).
+    pub snap: f64,
+    /// Upper bound on developability splits.
+    pub max_splits: usize,
+    /// Seed of the tracing order and the spectral start vectors.
+    pub seed: u64,
+}
+
+impl Default for LayoutOptions {
+    fn default() -> Self {
+        Self {
+            drift_penalty: 10.0,
+            max_deviation_deg: 45.0,
+            capture_radius: 4.0,
+            smooth_seams: true,
+            pin_spacing: 12.0,
+            merge: true,
+            max_developability: 2.5,
+            min_patch_fraction: 0.005,
+            snap: 0.2,
+            max_splits: 64,
+            seed: 1,
+        }
+    }
+}
+
+/// One seam: a chain of mesh edges between two nodes, and the patches on its two sides.
+#[derive(Clone, Debug)]
+pub struct Seam {
+    /// Vertices of the chain on the segmented mesh.
+    pub vertices: Vec<VertexId>,
+    /// Patches on the left and right of the chain (equal for a self-seam, e.g. a dart).
+    pub patches: [u32; 2],
+}
+
+/// One patch.
+#[derive(Clone, Debug)]
+pub struct PatchInfo {
+    /// Euler characteristic (1 for a disk).
+    pub euler: i64,
+    /// Boundary loops (1 for a disk).
+    pub loops: usize,
+    /// Corner vertices in boundary order.
+    pub corners: Vec<VertexId>,
+    /// Every corner candidate (junction, singularity, mesh-boundary vertex) on the boundary and
+    /// the patch's angle there in field quarter turns (a corner below 1.5).
+    pub candidates: Vec<(VertexId, f64)>,
+    /// Area (m²).
+    pub area: f64,
+    /// Developability score `∫ min(κ₁², κ₂²) dA` over the patch interior.
+    pub developability: f64,
+}
+
+/// Figures of a segmentation (`segmentation` in `summary.json`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SegmentationStats {
+    /// Number of patches.
+    pub patches: usize,
+    /// Patches that are topological disks (all of them, or the run fails).
+    pub disks: usize,
+    /// Patches below the tiny-area threshold that could not be merged away.
+    pub tiny_patches: usize,
+    /// Corners of every patch.
+    pub corners: Vec<usize>,
+    /// Share of patches with exactly four corners.
+    pub quad_fraction: f64,
+    /// Singularities not on a seam or boundary.
+    pub singularities_inside_patches: usize,
+    /// Total seam length (m), each seam counted once.
+    pub seam_length_m: f64,
+    /// Length-weighted median angle between the seams and the nearest cross direction (degrees).
+    pub seam_field_deviation_median_deg: f64,
+    /// Largest patch developability score.
+    pub developability_max: f64,
+    /// Merges of adjacent patches (and dangling seams removed).
+    pub merges: usize,
+    /// Developability splits.
+    pub splits: usize,
+    /// Separatrices traced (T-junctions among them) and failed.
+    pub separatrices: usize,
+    /// Separatrices ending in a T-junction.
+    pub t_junctions: usize,
+    /// Separatrices that found no target.
+    pub separatrices_failed: usize,
+    /// Extra cuts made to obtain disks.
+    pub extra_cuts: usize,
+    /// Whether the seams are straightened geodesics (false when straightening had to be skipped).
+    pub straightened: bool,
+    /// Smallest triangle angle of the segmented mesh (degrees).
+    pub min_angle_deg: f64,
+    /// Smallest angle of the triangles remeshing created (degrees; 180 when none).
+    pub min_angle_new_deg: f64,
+    /// Smallest triangle angle of the input mesh (degrees), for comparison.
+    pub min_angle_input_deg: f64,
+    /// Faces of the segmented mesh.
+    pub faces: usize,
+    /// Seconds spent.
+    pub seconds: f64,
+}
+
+/// The segmented target.
+#[derive(Clone, Debug)]
+pub struct Segmentation {
+    /// The remeshed target: every seam is an edge path.
+    pub mesh: Mesh,
+    /// Input-mesh face containing every face.
+    pub face_parent: FaceData<FaceId>,
+    /// Input vertex of every vertex that is one (inserted vertices: `None`).
+    pub vertex_input: VertexData<Option<VertexId>>,
+    /// Patch of every face.
+    pub patch_of_face: FaceData<u32>,
+    /// Every patch.
+    pub patches: Vec<PatchInfo>,
+    /// Every seam.
+    pub seams: Vec<Seam>,
+    /// The singularities on the segmented mesh.
+    pub singularities: Vec<Singularity>,
+    /// Cross field direction (one arm, unit, in the face plane) of every face.
+    pub field_directions: FaceData<Vec3>,
+    /// Figures.
+    pub stats: SegmentationStats,
+}
+
+/// A mesh with seams, tied to the input mesh.
+struct Stage {
+    mesh: Mesh,
+    face_parent: FaceData<FaceId>,
+    seam: EdgeData<bool>,
+    singular: VertexData<bool>,
+    /// Singularity index (quarter turns) of every vertex, 0 for regular ones.
+    index: VertexData<i32>,
+}
+
+/// Segment `mesh` given its cross field and singularities.
+pub fn segment(
+    mesh: &Mesh,
+    field: &CrossField,
+    singularities: &[Singularity],
+    opts: &LayoutOptions,
+) -> Result<Segmentation, LayoutError> {
+    let start = Instant::now();
+    let mut stats = SegmentationStats::default();
+    let dirs = field.directions(mesh);
+    let phi_max = opts.max_deviation_deg.to_radians();
+
+    // 1. Trace.
+    let vf = VertexField::from_face_field(mesh, field);
+    let trace_opts = TraceOptions {
+        drift_penalty: opts.drift_penalty,
+        max_deviation_deg: opts.max_deviation_deg,
+        seed: opts.seed,
+        capture_radius: opts.capture_radius,
+    };
+    let seps = trace_separatrices(mesh, &vf, &dirs, singularities, &trace_opts);
+    stats.separatrices = seps.iter().filter(|s| s.end != SeparatrixEnd::Failed).count();
+    stats.t_junctions = seps.iter().filter(|s| matches!(s.end, SeparatrixEnd::TJunction(_))).count();
+    stats.separatrices_failed = seps.len() - stats.separatrices;
+    let paths: Vec<Vec<VertexId>> = seps.iter().filter(|s| s.vertices.len() >= 2).map(|s| s.vertices.clone()).collect();
+    let mut seam = seam_edges(mesh, &paths);
+    let mut singular = VertexData::filled(mesh.n_vertices(), false);
+    let mut index = VertexData::filled(mesh.n_vertices(), 0i32);
+    for s in singularities {
+        singular[s.vertex] = true;
+        index[s.vertex] = s.index;
+    }
+    let attached = cutgraph::attach_isolated(mesh, &dirs, &mut seam, &singular, opts.drift_penalty, phi_max);
+    tracing::debug!(separatrices = stats.separatrices, attached, "traced");
+
+    // 2. Disks.
+    let (cuts, _) = make_disks(mesh, &dirs, &mut seam, opts.drift_penalty, phi_max)?;
+    stats.extra_cuts = cuts.len() + attached;
+
+    let mut stage = Stage { mesh: mesh.clone(), face_parent: mesh.face_ids().collect(), seam, singular, index };
+
+    // 3.–5. Merge, split, tiny patches, on the traced (jagged) seams: corners are measured
+    // between chords a few edges long, as the straightened seams will run.
+    let (seam, merges, splits, tiny_merges) = {
+        let scores = vertex_scores(&stage.mesh);
+        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs);
+        let merges = if opts.merge { state.merge_quads(opts.max_developability) } else { 0 };
+        let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
+        let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
+        let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area());
+        (state.seam, merges, splits + concave, tiny)
+    };
+    stage.seam = seam;
+    stats.merges = merges + tiny_merges;
+    stats.splits = splits;
+
+    // 6. Smooth seams: straighten and remesh once.
+    stats.straightened = opts.smooth_seams;
+    if opts.smooth_seams {
+        let (s, ok) = smooth(stage, opts)?;
+        stage = s;
+        stats.straightened &= ok;
+    }
+    let total_area = stage.mesh.total_area();
+    let field_directions: FaceData<Vec3> = stage
+        .mesh
+        .face_ids()
+        .map(|f| {
+            let n = stage.mesh.face_normal(f);
+            let d = dirs[stage.face_parent[f]];
+            let t = d - n * n.dot(&d);
+            if t.norm() > 1e-12 { t.normalize() } else { stage.mesh.face_frame(f).b1 }
+        })
+        .collect();
+    // Straightening can shrink a patch below the tiny threshold: one more pass on the final mesh.
+    let (seam, late_tiny) = {
+        let scores = vertex_scores(&stage.mesh);
+        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field_directions);
+        let m = state.merge_tiny(opts.min_patch_fraction * total_area);
+        (state.seam, m)
+    };
+    stage.seam = seam;
+    stats.merges += late_tiny;
+
+    // 7. Verify and report.
+    let rule = CornerRule::new(&stage.mesh, &stage.index)
+        .with_chords(if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS })
+        .with_field(field_directions.clone());
+    let p = patches_with(&stage.mesh, &stage.seam, &rule);
+    if let Some(bad) = (0..p.n).find(|&i| !p.is_disk(i)) {
+        return Err(LayoutError::NotADisk { patch: bad, euler: p.euler[bad], boundary_loops: p.loops[bad] });
+    }
+    let scores = vertex_scores(&stage.mesh);
+    let faces = p.faces();
+    let label = |f: FaceId| p.patch_of_face[f];
+    let cut = |e: EdgeId| stage.seam[e];
+    let patch_infos: Vec<PatchInfo> = (0..p.n)
+        .map(|i| PatchInfo {
+            euler: p.euler[i],
+            loops: p.loops[i],
+            corners: p.corners[i].clone(),
+            candidates: p.candidates[i].clone(),
+            area: p.area[i],
+            developability: region_score(&stage.mesh, &faces[i], &label, &cut, &scores),
+        })
+        .collect();
+    let chains = network::chains(&stage.mesh, &stage.seam, &stage.singular);
+    let seams: Vec<Seam> = chains
+        .into_iter()
+        .map(|c| {
+            let e = edge_between(&stage.mesh, c[0], c[1]).expect("chains are edge paths");
+            let h = stage.mesh.edge_halfedge(e);
+            // Left: the face of the halfedge running along the chain.
+            let (left, right) = if stage.mesh.tail(h) == c[0] {
+                (stage.mesh.face(h), stage.mesh.twin(h).map(|t| stage.mesh.face(t)))
+            } else {
+                (stage.mesh.twin(h).map(|t| stage.mesh.face(t)).unwrap_or(stage.mesh.face(h)), Some(stage.mesh.face(h)))
+            };
+            let pl = p.patch_of_face[left];
+            let pr = right.map(|f| p.patch_of_face[f]).unwrap_or(pl);
+            Seam { vertices: c, patches: [pl, pr] }
+        })
+        .collect();
+    let on_cut = {
+        let mut on = VertexData::filled(stage.mesh.n_vertices(), false);
+        for e in stage.mesh.edges() {
+            if stage.seam[e] || stage.mesh.is_boundary_edge(e) {
+                for v in stage.mesh.edge_vertices(e) {
+                    on[v] = true;
+                }
+            }
+        }
+        on
+    };
+    // Input vertices keep their ids through remeshing.
+    let final_singularities: Vec<Singularity> = singularities.to_vec();
+    stats.singularities_inside_patches = final_singularities.iter().filter(|s| !on_cut[s.vertex]).count();
+    stats.patches = p.n;
+    stats.disks = (0..p.n).filter(|&i| p.is_disk(i)).count();
+    stats.corners = patch_infos.iter().map(|i| i.corners.len()).collect();
+    stats.quad_fraction =
+        if p.n > 0 { stats.corners.iter().filter(|&&c| c == 4).count() as f64 / p.n as f64 } else { 0.0 };
+    stats.tiny_patches = patch_infos.iter().filter(|i| i.area < opts.min_patch_fraction * total_area).count();
+    stats.developability_max = patch_infos.iter().map(|i| i.developability).fold(0.0, f64::max);
+    let (len, dev) = seam_deviation(&stage.mesh, &stage.seam, &field_directions);
+    stats.seam_length_m = len;
+    stats.seam_field_deviation_median_deg = dev;
+    stats.min_angle_deg = stage.mesh.min_angle().to_degrees();
+    stats.min_angle_input_deg = mesh.min_angle().to_degrees();
+    stats.min_angle_new_deg = {
+        let mut children = vec![0u32; mesh.n_faces()];
+        for &f in stage.face_parent.iter() {
+            children[f.idx()] += 1;
+        }
+        let angles = stage.mesh.corner_angles();
+        stage
+            .mesh
+            .face_ids()
+            .filter(|&f| children[stage.face_parent[f].idx()] > 1)
+            .flat_map(|f| (0..3).map(move |k| (f, k)))
+            .map(|(f, k)| angles[stage.mesh.face_halfedge(f, k)])
+            .fold(std::f64::consts::PI, f64::min)
+            .to_degrees()
+    };
+    stats.faces = stage.mesh.n_faces();
+    stats.seconds = start.elapsed().as_secs_f64();
+    let vertex_input = stage.mesh.vertices().map(|v| (v.idx() < mesh.n_vertices()).then_some(v)).collect();
+    Ok(Segmentation {
+        face_parent: stage.face_parent,
+        vertex_input,
+        patch_of_face: p.patch_of_face,
+        patches: patch_infos,
+        seams,
+        singularities: final_singularities,
+        field_directions,
+        mesh: stage.mesh,
+        stats,
+    })
+}
+
+/// Straighten the seam network and remesh along it. Returns the new stage and whether the
+/// straightened seams were kept (false: the patch topology could not be kept, the stage is
+/// unchanged).
+///
+/// FlipOut lets geodesics touch (a geodesic wrapping around another chain's end passes through
+/// it; two geodesics may share a vertex or an edge point). A touch pinches the patch between the
+/// two seams and changes the layout, so touching chains get their middle vertex as an extra
+/// fixed node and the network is straightened again; in the last two of [`SMOOTH_ATTEMPTS`]
+/// rounds every vertex of a chain that still touches is pinned (it keeps its traced course).
+fn smooth(stage: Stage, opts: &LayoutOptions) -> Result<(Stage, bool), LayoutError> {
+    let before = patches(&stage.mesh, &stage.seam);
+    let mut nodes = stage.singular.clone();
+    // Pins along long chains: each piece between pins becomes a geodesic, so the seam keeps
+    // the course of the traced (field-aligned) curve instead of cutting across to its far end.
+    if opts.pin_spacing > 0.0 {
+        let spacing = opts.pin_spacing * stage.mesh.mean_edge_length();
+        for chain in network::chains(&stage.mesh, &stage.seam, &nodes) {
+            let len: Vec<f64> =
+                chain.windows(2).map(|w| (stage.mesh.position(w[1]) - stage.mesh.position(w[0])).norm()).collect();
+            let total: f64 = len.iter().sum();
+            let pieces = (total / spacing).round().max(1.0);
+            let step = total / pieces;
+            let mut acc = 0.0;
+            let mut next = step;
+            for (i, l) in len.iter().enumerate().take(chain.len().saturating_sub(2)) {
+                acc += l;
+                if acc >= next - 1e-12 {
+                    nodes[chain[i + 1]] = true;
+                    next += step;
+                }
+            }
+        }
+    }
+    for attempt in 0..SMOOTH_ATTEMPTS {
+        let chains = network::chains(&stage.mesh, &stage.seam, &nodes);
+        if chains.is_empty() {
+            return Ok((stage, true));
+        }
+        let polylines = straighten_network(&stage.mesh, &chains, &FlipOutOptions::default())?;
+        let mut touching = touching_chains(&polylines);
+        let mut remeshed = None;
+        if touching.is_empty() {
+            // Remeshing snaps crossings near a vertex onto it, which can make two seams touch too.
+            let r = insert_polylines(&stage.mesh, &polylines, &RemeshOptions { snap: opts.snap })?;
+            let as_points: Vec<Vec<crate::SurfacePoint>> =
+                r.paths.iter().map(|p| p.iter().map(|&v| crate::SurfacePoint::Vertex(v)).collect()).collect();
+            touching = touching_chains(&as_points);
+            remeshed = Some(r);
+        }
+        if !touching.is_empty() {
+            tracing::debug!(attempt, touching = touching.len(), "straightened seams touch; pinning them");
+            // First pin the middles; in the last rounds pin every vertex (a chain of single
+            // edges cannot move, so the network then straightens without touching).
+            let mut progressed = false;
+            for &c in &touching {
+                let chain = &chains[c];
+                if chain.len() < 3 {
+                    continue;
+                }
+                if attempt + 2 >= SMOOTH_ATTEMPTS {
+                    chain.iter().for_each(|&v| nodes[v] = true);
+                } else {
+                    nodes[chain[chain.len() / 2]] = true;
+                }
+                progressed = true;
+            }
+            if progressed {
+                continue;
+            }
+            break;
+        }
+        let r = remeshed.expect("remeshed when nothing touches");
+        let seam = seam_edges(&r.mesh, &r.paths);
+        let after = patches(&r.mesh, &seam);
+        if after.n != before.n || (0..after.n).any(|i| !after.is_disk(i)) {
+            break;
+        }
+        let mut singular = VertexData::filled(r.mesh.n_vertices(), false);
+        let mut index = VertexData::filled(r.mesh.n_vertices(), 0);
+        for v in stage.mesh.vertices() {
+            singular[v] = stage.singular[v];
+            index[v] = stage.index[v];
+        }
+        let face_parent = r.face_parent.map(|&f| stage.face_parent[f]);
+        return Ok((Stage { mesh: r.mesh, face_parent, seam, singular, index }, true));
+    }
+    tracing::warn!(patches = before.n, "straightened seams would change the patches; keeping the traced seams");
+    Ok((stage, false))
+}
+
+/// A patch angle of at least this many quarter turns is a concave corner.
+const CONCAVE_QUARTERS: f64 = 2.5;
+
+/// Corners of traced (jagged) seams are measured between chords this many edges long.
+const CHORD_STEPS: usize = 8;
+/// Corners of the final (straightened) seams: chords a few edges long (they are geodesics; this
+/// only smooths the remeshing's small kinks).
+const FINAL_CHORD_STEPS: usize = 3;
+
+/// Rounds of straightening in [`smooth`].
+const SMOOTH_ATTEMPTS: usize = 8;
+
+/// Polylines whose interior shares a point (vertex or edge point) with another polyline.
+fn touching_chains(polylines: &[Vec<crate::SurfacePoint>]) -> Vec<usize> {
+    use crate::SurfacePoint;
+    let key = |p: &SurfacePoint| -> (u8, u32, i64) {
+        match *p {
+            SurfacePoint::Vertex(v) => (0, v.0, 0),
+            SurfacePoint::Edge { edge, t } => (1, edge.0, (t * 1e6).round() as i64),
+        }
+    };
+    // Every point → the polylines using it (ends count, interiors are what gets pinched).
+    let mut users: BTreeMap<(u8, u32, i64), Vec<(usize, bool)>> = BTreeMap::new();
+    for (i, pl) in polylines.iter().enumerate() {
+        for (j, p) in pl.iter().enumerate() {
+            let interior = j > 0 && j + 1 < pl.len();
+            users.entry(key(p)).or_default().push((i, interior));
+        }
+    }
+    let mut out: BTreeSet<usize> = BTreeSet::new();
+    for list in users.values() {
+        if list.len() < 2 || !list.iter().any(|&(_, interior)| interior) {
+            continue;
+        }
+        for &(i, interior) in list {
+            if interior {
+                out.insert(i);
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// Σ of vertex scores over the interior vertices of a region (no incident cut edge).
+fn region_score(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    scores: &VertexData<f64>,
+) -> f64 {
+    let own = match faces.first() {
+        Some(&f) => label(f),
+        None => return 0.0,
+    };
+    let mut vs: Vec<VertexId> = faces.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
+    vs.sort_unstable();
+    vs.dedup();
+    vs.into_iter()
+        .filter(|&v| {
+            !mesh.is_boundary_vertex(v) && mesh.outgoing(v).all(|h| label(mesh.face(h)) == own && !seam(mesh.edge(h)))
+        })
+        .map(|v| scores[v])
+        .sum()
+}
+
+/// The connected pieces (through shared vertices) of a set of edges.
+fn edge_components(mesh: &Mesh, edges: &[EdgeId]) -> Vec<Vec<EdgeId>> {
+    let mut uf = clothcast_mesh::util::UnionFind::new(edges.len());
+    let mut at: BTreeMap<VertexId, usize> = BTreeMap::new();
+    for (i, &e) in edges.iter().enumerate() {
+        for v in mesh.edge_vertices(e) {
+            if let Some(&j) = at.get(&v) {
+                uf.union(i as u32, j as u32);
+            } else {
+                at.insert(v, i);
+            }
+        }
+    }
+    let (labels, n) = uf.labels();
+    let mut out = vec![Vec::new(); n];
+    for (i, &e) in edges.iter().enumerate() {
+        out[labels[i] as usize].push(e);
+    }
+    out
+}
+
+/// Length-weighted median deviation (degrees) of seam edges from the field, and total length.
+fn seam_deviation(mesh: &Mesh, seam: &EdgeData<bool>, dirs: &FaceData<Vec3>) -> (f64, f64) {
+    let mut samples: Vec<(f64, f64)> = Vec::new();
+    for e in mesh.edges() {
+        if !seam[e] || mesh.is_boundary_edge(e) {
+            continue;
+        }
+        let h = mesh.edge_halfedge(e);
+        let d = mesh.vector(h);
+        let len = d.norm();
+        if len <= 0.0 {
+            continue;
+        }
+        let dev = |f: FaceId| {
+            let n = mesh.face_normal(f);
+            let t = d - n * n.dot(&d);
+            if t.norm() <= 0.0 {
+                return 0.0;
+            }
+            let t = t.normalize();
+            let a = dirs[f];
+            let b = n.cross(&a);
+            a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos()
+        };
+        let phi = match mesh.edge_faces(e) {
+            (a, Some(b)) => 0.5 * (dev(a) + dev(b)),
+            (a, None) => dev(a),
+        };
+        samples.push((phi.to_degrees(), len));
+    }
+    let total: f64 = samples.iter().map(|s| s.1).sum();
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut acc = 0.0;
+    let mut median = 0.0;
+    for (phi, w) in &samples {
+        acc += w;
+        median = *phi;
+        if acc >= 0.5 * total {
+            break;
+        }
+    }
+    (total, median)
+}
+
+/// Patches as labelled face sets over a fixed mesh, with the seam set; merges and splits.
+struct State<'a> {
+    mesh: &'a Mesh,
+    seam: EdgeData<bool>,
+    label: FaceData<u32>,
+    /// Faces of each label (sorted; empty once merged away).
+    faces: Vec<Vec<FaceId>>,
+    singular: &'a VertexData<bool>,
+    scores: &'a VertexData<f64>,
+    density: VertexData<f64>,
+    vertex_areas: VertexData<f64>,
+    rule: CornerRule,
+    degree: VertexData<u32>,
+}
+
+/// A candidate merge: patches `a` and `b` (equal for removing a dangling seam) and the edges
+/// to remove.
+struct Candidate {
+    a: u32,
+    b: u32,
+    edges: Vec<EdgeId>,
+    score: f64,
+    length: f64,
+}
+
+impl<'a> State<'a> {
+    fn new(
+        mesh: &'a Mesh,
+        seam: &EdgeData<bool>,
+        singular: &'a VertexData<bool>,
+        index: &VertexData<i32>,
+        scores: &'a VertexData<f64>,
+        field: &FaceData<Vec3>,
+    ) -> Self {
+        let p = patches(mesh, seam);
+        let faces = p.faces();
+        let vertex_areas = mesh.vertex_areas();
+        let density =
+            mesh.vertices().map(|v| if vertex_areas[v] > 0.0 { scores[v] / vertex_areas[v] } else { 0.0 }).collect();
+        Self {
+            mesh,
+            seam: seam.clone(),
+            label: p.patch_of_face,
+            faces,
+            singular,
+            scores,
+            density,
+            vertex_areas,
+            rule: CornerRule::new(mesh, index).with_chords(CHORD_STEPS).with_field(field.clone()),
+            degree: network::seam_degree(mesh, seam),
+        }
+    }
+
+    /// Seam edges grouped by the (sorted) pair of labels on their sides.
+    fn interfaces(&self) -> BTreeMap<(u32, u32), Vec<EdgeId>> {
+        let mut out: BTreeMap<(u32, u32), Vec<EdgeId>> = BTreeMap::new();
+        for e in self.mesh.edges() {
+            if !self.seam[e] {
+                continue;
+            }
+            if let (a, Some(b)) = self.mesh.edge_faces(e) {
+                let (la, lb) = (self.label[a], self.label[b]);
+                out.entry((la.min(lb), la.max(lb))).or_default().push(e);
+            }
+        }
+        out
+    }
+
+    /// Evaluate removing `edges` between `a` and `b`: the union's topology and score, or None if
+    /// a singularity would end up inside.
+    fn evaluate(&self, a: u32, b: u32, edges: &[EdgeId]) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
+        // Singularities exposed by the removal.
+        let mut removed_at: BTreeMap<VertexId, u32> = BTreeMap::new();
+        for &e in edges {
+            for v in self.mesh.edge_vertices(e) {
+                *removed_at.entry(v).or_default() += 1;
+            }
+        }
+        for (&v, &k) in &removed_at {
+            if self.singular[v] && self.degree[v] <= k && !self.mesh.is_boundary_vertex(v) {
+                return None;
+            }
+        }
+        let mut union: Vec<FaceId> = self.faces[a as usize].clone();
+        if a != b {
+            union.extend_from_slice(&self.faces[b as usize]);
+            union.sort_unstable();
+        }
+        let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
+        let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
+        let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
+        let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
+        let score = region_score(self.mesh, &union, &label, &seam, self.scores);
+        Some((info, score, union))
+    }
+
+    fn apply(&mut self, a: u32, b: u32, edges: &[EdgeId], union: Vec<FaceId>) {
+        for &e in edges {
+            self.seam[e] = false;
+            for v in self.mesh.edge_vertices(e) {
+                self.degree[v] -= 1;
+            }
+        }
+        if a != b {
+            for &f in &self.faces[b as usize] {
+                self.label[f] = a;
+            }
+            self.faces[b as usize].clear();
+        }
+        self.faces[a as usize] = union;
+    }
+
+    /// Dangling seam edges inside patch `a`: seam edges with the same patch on both sides
+    /// forming chains that end at a seam-degree-1 vertex (slits), as groups of edges.
+    fn slits(&self) -> Vec<(u32, Vec<EdgeId>)> {
+        let mut out = Vec::new();
+        let none = VertexData::filled(self.mesh.n_vertices(), false);
+        let chains = network::chains(self.mesh, &self.seam, &none);
+        for c in chains {
+            let (first, last) = (c[0], *c.last().expect("chains have two vertices"));
+            let dangling = |v: VertexId| self.degree[v] == 1 && !self.mesh.is_boundary_vertex(v);
+            if !dangling(first) && !dangling(last) {
+                continue;
+            }
+            let edges: Vec<EdgeId> = c.windows(2).filter_map(|w| edge_between(self.mesh, w[0], w[1])).collect();
+            let (fa, fb) = self.mesh.edge_faces(edges[0]);
+            let Some(fb) = fb else { continue };
+            if self.label[fa] == self.label[fb] {
+                out.push((self.label[fa], edges));
+            }
+        }
+        out
+    }
+
+    /// Greedy merges into quads; returns the number of merges.
+    fn merge_quads(&mut self, max_dev: f64) -> usize {
+        let mut merges = 0;
+        // Cache of evaluated pairs: (a, b) → candidate if acceptable.
+        let mut cache: BTreeMap<(u32, u32), Option<Candidate>> = BTreeMap::new();
+        loop {
+            let interfaces = self.interfaces();
+            let mut pairs: Vec<((u32, u32), Vec<EdgeId>)> = interfaces.into_iter().collect();
+            for (a, edges) in self.slits() {
+                pairs.push(((a, a), edges));
+            }
+            let mut best: Option<Candidate> = None;
+            for ((a, b), edges) in pairs {
+                let key = (a, b);
+                let cand = match cache.get(&key) {
+                    Some(c) if c.as_ref().is_none_or(|c| c.edges == edges) => {
+                        c.as_ref().map(|c| Candidate { a, b, edges: c.edges.clone(), score: c.score, length: c.length })
+                    }
+                    _ => {
+                        let c = self.evaluate(a, b, &edges).and_then(|(info, score, _)| {
+                            (info.is_disk() && info.corners.len() == 4 && score <= max_dev).then(|| Candidate {
+                                a,
+                                b,
+                                length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
+                                edges: edges.clone(),
+                                score,
+                            })
+                        });
+                        cache.insert(
+                            key,
+                            c.as_ref().map(|c| Candidate {
+                                a,
+                                b,
+                                edges: c.edges.clone(),
+                                score: c.score,
+                                length: c.length,
+                            }),
+                        );
+                        c
+                    }
+                };
+                if let Some(c) = cand {
+                    let better = match &best {
+                        None => true,
+                        Some(bst) => c.score < bst.score || (c.score == bst.score && c.length > bst.length),
+                    };
+                    if better {
+                        best = Some(c);
+                    }
+                }
+            }
+            let Some(c) = best else { break };
+            let (_, _, union) = self.evaluate(c.a, c.b, &c.edges).expect("cached candidates are valid");
+            // Invalidate pairs touching the merged patches and their neighbours.
+            let mut touched: BTreeSet<u32> = BTreeSet::from([c.a, c.b]);
+            for &f in &union {
+                for k in 0..3 {
+                    if let Some(g) = self.mesh.face_neighbor(f, k) {
+                        touched.insert(self.label[g]);
+                    }
+                }
+                for v in self.mesh.face_vertices(f) {
+                    for g in self.mesh.vertex_faces(v) {
+                        touched.insert(self.label[g]);
+                    }
+                }
+            }
+            self.apply(c.a, c.b, &c.edges, union);
+            cache.retain(|&(x, y), _| !touched.contains(&x) && !touched.contains(&y));
+            merges += 1;
+        }
+        merges
+    }
+
+    /// Split non-quad patches at their concave corners (an angle of three quarter turns, an
+    /// L-shaped patch): trace from the corner along a field arm pointing into the patch until the
+    /// patch boundary (Pietroni et al. 2016 complete their layouts the same way). A split is kept
+    /// when both sides are disks and together they are closer to quads (Σ |corners − 4|
+    /// decreases). Returns the number of splits.
+    fn split_concave(&mut self, vf: &VertexField, trace: &TraceOptions, max_splits: usize) -> usize {
+        let mut splits = 0;
+        let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
+        'outer: while splits < max_splits {
+            for p in 0..self.faces.len() as u32 {
+                if self.faces[p as usize].is_empty() {
+                    continue;
+                }
+                let info = {
+                    let label = |f: FaceId| self.label[f];
+                    let seam = |e: EdgeId| self.seam[e];
+                    region_info(self.mesh, &self.faces[p as usize], &label, &seam, &self.rule)
+                };
+                let bad = info.corners.len().abs_diff(4);
+                if bad == 0 {
+                    continue;
+                }
+                for &(v, q) in &info.candidates {
+                    if q < CONCAVE_QUARTERS || failed.contains(&(p, v)) {
+                        continue;
+                    }
+                    if let Some((a, b)) = self.best_concave_split(p, v, bad, vf, trace) {
+                        self.apply_split(p, a, b);
+                        splits += 1;
+                        continue 'outer;
+                    }
+                    failed.insert((p, v));
+                }
+            }
+            break;
+        }
+        splits
+    }
+
+    /// The best field-aligned split of patch `p` from its concave corner `v`, as the two sides.
+    fn best_concave_split(
+        &self,
+        p: u32,
+        v: VertexId,
+        bad: usize,
+        vf: &VertexField,
+        trace: &TraceOptions,
+    ) -> Option<(Vec<FaceId>, Vec<FaceId>)> {
+        let mesh = self.mesh;
+        let faces = &self.faces[p as usize];
+        let field = self.rule.field.as_ref()?;
+        let in_p = |f: FaceId| self.label[f] == p;
+        let on_boundary = |u: VertexId| {
+            mesh.is_boundary_vertex(u) || mesh.outgoing(u).any(|h| self.seam[mesh.edge(h)] || !in_p(mesh.face(h)))
+        };
+        // Arms of the faces at v that point into the patch, away from its boundary edges at v.
+        let boundary_dirs: Vec<Vec3> = mesh
+            .outgoing(v)
+            .filter(|&h| {
+                let e = mesh.edge(h);
+                self.seam[e]
+                    || mesh.is_boundary_edge(e)
+                    || mesh.edge_faces(e).1.is_some_and(|g| in_p(g) != in_p(mesh.edge_faces(e).0))
+            })
+            .map(|h| mesh.vector(h).normalize())
+            .collect();
+        let mut dirs: Vec<Vec3> = Vec::new();
+        for h in mesh.outgoing(v) {
+            let f = mesh.face(h);
+            if !in_p(f) {
+                continue;
+            }
+            let n = mesh.face_normal(f);
+            let e1 = mesh.vector(h);
+            let e2 = mesh.position(mesh.opposite_vertex(h)) - mesh.position(v);
+            let corner = e1.angle(&e2);
+            let a = field[f] - n * n.dot(&field[f]);
+            if a.norm() <= 0.0 {
+                continue;
+            }
+            let a = a.normalize();
+            let b = n.cross(&a);
+            for d in [a, b, -a, -b] {
+                let inside = (e1.angle(&d) + d.angle(&e2) - corner).abs() < 1e-9;
+                let clear = boundary_dirs.iter().all(|bd| bd.angle(&d) > 30f64.to_radians());
+                if inside && clear && dirs.iter().all(|x| x.angle(&d) > 20f64.to_radians()) {
+                    dirs.push(d);
+                }
+            }
+        }
+        let neighbours: BTreeSet<VertexId> = mesh.vertex_neighbors(v).into_iter().collect();
+        let mut best: Option<(usize, f64, Vec<FaceId>, Vec<FaceId>)> = None;
+        for d in dirs {
+            let (k, _) = vf.best_arm(v, &d);
+            let allowed = |u: VertexId| {
+                let touches = mesh.vertex_faces(u).any(&in_p);
+                touches && (on_boundary(u) || !self.singular[u])
+            };
+            let target = |u: VertexId| on_boundary(u) && !neighbours.contains(&u);
+            let seam_at = |u: VertexId, w: VertexId| {
+                edge_between(mesh, u, w).is_some_and(|e| self.seam[e] || mesh.is_boundary_edge(e))
+            };
+            let Some(path) = field_path(mesh, vf, v, k, Some(d), trace, &allowed, &target, &seam_at) else { continue };
+            // The first step must enter the patch through its interior.
+            let Some(e0) = edge_between(mesh, path[0], path[1]) else { continue };
+            let interior_first = !self.seam[e0] && matches!(mesh.edge_faces(e0), (f, Some(g)) if in_p(f) && in_p(g));
+            if !interior_first || path[1..path.len() - 1].iter().any(|&u| on_boundary(u)) {
+                continue;
+            }
+            let cut: BTreeSet<EdgeId> = path.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
+            let Some((a, b)) = self.two_sides(faces, &cut) else { continue };
+            let label = |f: FaceId| {
+                if self.label[f] != p {
+                    self.label[f]
+                } else if a.binary_search(&f).is_ok() {
+                    u32::MAX
+                } else {
+                    u32::MAX - 1
+                }
+            };
+            let seam = |e: EdgeId| self.seam[e] || cut.contains(&e);
+            let ia = region_info(mesh, &a, &label, &seam, &self.rule);
+            let ib = region_info(mesh, &b, &label, &seam, &self.rule);
+            if !ia.is_disk() || !ib.is_disk() {
+                continue;
+            }
+            let after = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4);
+            if after >= bad {
+                continue;
+            }
+            let len: f64 = path.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum();
+            if best.as_ref().is_none_or(|(ba, bl, _, _)| after < *ba || (after == *ba && len < *bl)) {
+                best = Some((after, len, a, b));
+            }
+        }
+        best.map(|(_, _, a, b)| (a, b))
+    }
+
+    /// The faces of a patch split by extra cut edges, if they fall in exactly two parts.
+    fn two_sides(&self, faces: &[FaceId], cut: &BTreeSet<EdgeId>) -> Option<(Vec<FaceId>, Vec<FaceId>)> {
+        let mut uf = clothcast_mesh::util::UnionFind::new(faces.len());
+        for (i, &f) in faces.iter().enumerate() {
+            for k in 0..3 {
+                let h = self.mesh.face_halfedge(f, k);
+                let Some(t) = self.mesh.twin(h) else { continue };
+                let e = self.mesh.edge(h);
+                if self.seam[e] || cut.contains(&e) {
+                    continue;
+                }
+                if let Ok(j) = faces.binary_search(&self.mesh.face(t)) {
+                    uf.union(i as u32, j as u32);
+                }
+            }
+        }
+        let (labels, n) = uf.labels();
+        if n != 2 {
+            return None;
+        }
+        let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
+        let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
+        Some((a, b))
+    }
+
+    /// Split patch `p` into sides `a` (keeps the label) and `b` (a new label), making the edges
+    /// between them seams.
+    fn apply_split(&mut self, p: u32, a: Vec<FaceId>, b: Vec<FaceId>) {
+        let new = self.faces.len() as u32;
+        for &f in &b {
+            self.label[f] = new;
+        }
+        for &f in &a {
+            for k in 0..3 {
+                let h = self.mesh.face_halfedge(f, k);
+                if let Some(t) = self.mesh.twin(h)
+                    && self.label[self.mesh.face(t)] == new
+                {
+                    let e = self.mesh.edge(h);
+                    if !self.seam[e] {
+                        self.seam[e] = true;
+                        for v in self.mesh.edge_vertices(e) {
+                            self.degree[v] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        self.faces[p as usize] = a;
+        self.faces.push(b);
+    }
+
+    /// Merge patches smaller than `min_area` into their neighbours; returns the merges.
+    fn merge_tiny(&mut self, min_area: f64) -> usize {
+        let mut merges = 0;
+        loop {
+            let area = |fs: &[FaceId]| fs.iter().map(|&f| self.mesh.face_area(f)).sum::<f64>();
+            let interfaces = self.interfaces();
+            let mut done = false;
+            let mut tiny: Vec<(f64, u32)> = (0..self.faces.len() as u32)
+                .filter(|&p| !self.faces[p as usize].is_empty())
+                .map(|p| (area(&self.faces[p as usize]), p))
+                .filter(|&(a, _)| a < min_area)
+                .collect();
+            tiny.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            for (_, t) in tiny {
+                // Each neighbour across all shared seams, then across each connected piece of
+                // them alone (the others stay as seams inside the union).
+                let length = |edges: &[EdgeId]| edges.iter().map(|&e| self.mesh.edge_length(e)).sum::<f64>();
+                let mut options: Vec<(u8, f64, u32, u32, Vec<EdgeId>)> = Vec::new();
+                for (&(a, b), edges) in &interfaces {
+                    if a == b || (a != t && b != t) {
+                        continue;
+                    }
+                    options.push((0, length(edges), a, b, edges.clone()));
+                    let pieces = edge_components(self.mesh, edges);
+                    if pieces.len() > 1 {
+                        for piece in pieces {
+                            options.push((1, length(&piece), a, b, piece));
+                        }
+                    }
+                }
+                options.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.total_cmp(&x.1)).then(x.2.cmp(&y.2)).then(x.3.cmp(&y.3)));
+                for (_, _, a, b, edges) in options {
+                    // Keep the neighbour's label.
+                    let (keep, gone) = if a == t { (b, a) } else { (a, b) };
+                    if let Some((info, _, union)) = self.evaluate(keep, gone, &edges)
+                        && info.is_disk()
+                    {
+                        self.apply(keep, gone, &edges, union);
+                        merges += 1;
+                        done = true;
+                        break;
+                    }
+                }
+                if done {
+                    break;
+                }
+            }
+            if !done {
+                break;
+            }
+        }
+        merges
+    }
+
+    /// Split patches above `max_dev` in two, recursively; returns the number of splits.
+    fn split_non_developable(
+        &mut self,
+        max_dev: f64,
+        max_splits: usize,
+        vf: &VertexField,
+        trace: &TraceOptions,
+    ) -> Result<usize, LayoutError> {
+        let seed = trace.seed;
+        if !max_dev.is_finite() {
+            return Ok(0);
+        }
+        let mut splits = 0;
+        let mut failed: BTreeSet<u32> = BTreeSet::new();
+        while splits < max_splits {
+            // The worst patch above the threshold that has not failed to split.
+            let mut worst: Option<(f64, u32)> = None;
+            for p in 0..self.faces.len() as u32 {
+                if self.faces[p as usize].is_empty() || failed.contains(&p) {
+                    continue;
+                }
+                let label = |f: FaceId| self.label[f];
+                let seam = |e: EdgeId| self.seam[e];
+                let s = region_score(self.mesh, &self.faces[p as usize], &label, &seam, self.scores);
+                if s > max_dev && worst.is_none_or(|(w, _)| s > w) {
+                    worst = Some((s, p));
+                }
+            }
+            let Some((_, p)) = worst else { break };
+            let label = |f: FaceId| self.label[f];
+            let seam = |e: EdgeId| self.seam[e];
+            let split = spectral_split(
+                self.mesh,
+                &self.faces[p as usize],
+                &label,
+                &seam,
+                &self.density,
+                &self.vertex_areas,
+                &self.rule,
+                seed.wrapping_add(splits as u64),
+            )?;
+            let Some(split) = split else {
+                failed.insert(p);
+                continue;
+            };
+            let split =
+                field_aligned_split(self.mesh, &self.faces[p as usize], &label, &seam, &split, vf, trace, &self.rule)
+                    .unwrap_or(split);
+            self.apply_split(p, split.a, split.b);
+            splits += 1;
+        }
+        Ok(splits)
+    }
+}

@@ -1,0 +1,330 @@
+//! Developability split: cut a non-developable patch in two by spectral clustering (paper
+//! §6.2.3 and its supplement §8; von Luxburg 2007; Shi & Malik's normalized cut; ALGORITHMS.md §8).
+//!
+//! **Affinity.** The dual graph of the patch (faces joined across its non-cut edges) with weights
+//! `w_fg = ℓ_e · exp(−ρ_e / ρ̄)`: ℓ_e the shared edge's length, ρ_e the mean of the hinge-energy
+//! densities (≈ min κ², see `developability`) at its two vertices and ρ̄ their area-weighted mean
+//! over the patch. Cheap to cut where the surface is least developable, so the cut runs through
+//! high-energy regions "with high probability", as the paper asks. (ALGORITHMS.md suggests
+//! normal differences; those also penalise cutting across creases of developable bends, which
+//! need no cut.)
+//!
+//! **Fiedler vector** of `L y = λ D y` (L = D − W) by inverse iteration on `(L + σD)` with the
+//! constant vector deflated (D-orthogonal projection), one sparse Cholesky factorization. The
+//! start vector is seeded, so the split is deterministic.
+//!
+//! **Sweep.** Faces sorted by the Fiedler value; every prefix with 15–85% of the area is a
+//! candidate, scored by its normalized cut `cut(S, S̄) (1/vol S + 1/vol S̄)`, computed
+//! incrementally. Candidates are tried best first; the first whose two sides are both
+//! topological disks wins (so the new seam is one boundary-to-boundary path).
+//!
+//! **Field-aligned cut.** The sweep decides *where* to cut; the seam itself is then traced along
+//! the field from the middle of the sweep's interface to the patch boundary in both directions
+//! ([`field_aligned_split`]), so a quad splits into two quads and the new seam follows the fibres
+//! like the others. The sweep's own interface is kept when that trace does not give two disks.
+//!
+//! Complexity: O(F_p log F_p) for the ordering and sweep plus one sparse factorization and
+//! `ITERATIONS` solves on the patch.
+
+use crate::LayoutError;
+use crate::patches::{CornerRule, RegionInfo, edge_between, region_info};
+use crate::trace::{TraceOptions, field_path};
+use crate::vertex_field::VertexField;
+use clothcast_mesh::sparse::{CholeskySolver, SymmetricPattern};
+use clothcast_mesh::util::SplitMix64;
+use clothcast_mesh::util::UnionFind;
+use clothcast_mesh::{EdgeId, FaceId, Mesh, VertexData, VertexId};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Inverse iterations for the Fiedler vector.
+const ITERATIONS: usize = 60;
+/// Sweep candidates tried (best normalized cut first).
+const MAX_CANDIDATES: usize = 40;
+/// Smallest share of the patch area on either side of a split.
+const MIN_SIDE: f64 = 0.15;
+
+/// A split of a patch: the faces of the two sides (sorted) and their topology.
+#[derive(Clone, Debug)]
+pub struct Split {
+    /// First side.
+    pub a: Vec<FaceId>,
+    /// Second side.
+    pub b: Vec<FaceId>,
+    /// Topology of the first side.
+    pub info_a: RegionInfo,
+    /// Topology of the second side.
+    pub info_b: RegionInfo,
+    /// Normalized cut value.
+    pub ncut: f64,
+}
+
+/// Split the patch `faces` (sorted; the region of label `label(faces[0])`) in two disks.
+/// `density` is the per-vertex hinge density ρ_v (1/m²). Returns `None` when no sweep cut
+/// gives two disks.
+#[allow(clippy::too_many_arguments)]
+pub fn spectral_split(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    density: &VertexData<f64>,
+    areas: &VertexData<f64>,
+    rule: &CornerRule,
+    seed: u64,
+) -> Result<Option<Split>, LayoutError> {
+    let n = faces.len();
+    if n < 8 {
+        return Ok(None);
+    }
+    let own = label(faces[0]);
+    let local = |f: FaceId| faces.binary_search(&f).ok();
+    // Mean density over the patch.
+    let (mut rs, mut ws) = (0.0, 0.0);
+    for &f in faces {
+        for v in mesh.face_vertices(f) {
+            rs += density[v] * areas[v];
+            ws += areas[v];
+        }
+    }
+    let rho_bar = if ws > 0.0 { rs / ws } else { 0.0 } + 1e-300;
+    // Dual graph.
+    let mut arcs: Vec<(usize, usize, f64)> = Vec::new();
+    for (i, &f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let h = mesh.face_halfedge(f, k);
+            let Some(t) = mesh.twin(h) else { continue };
+            let g = mesh.face(t);
+            if seam(mesh.edge(h)) || label(g) != own {
+                continue;
+            }
+            let j = local(g).expect("same label faces are in the patch");
+            if i < j {
+                let [a, b] = [mesh.tail(h), mesh.head(h)];
+                let rho = 0.5 * (density[a] + density[b]);
+                let w = mesh.vector(h).norm() * (-rho / rho_bar).exp();
+                arcs.push((i, j, w.max(1e-300)));
+            }
+        }
+    }
+    let mut degree = vec![0.0; n];
+    for &(i, j, w) in &arcs {
+        degree[i] += w;
+        degree[j] += w;
+    }
+    if degree.iter().any(|&d| d <= 0.0) {
+        // An isolated face (the patch is not connected through edges): no spectral split.
+        return Ok(None);
+    }
+    let pattern = SymmetricPattern::from_entries(n, arcs.iter().map(|&(i, j, _)| (i, j)));
+    let mut values = vec![0.0; pattern.nnz()];
+    let sigma = 1e-6;
+    for &(i, j, w) in &arcs {
+        values[pattern.slot(i, j)] -= w;
+    }
+    for i in 0..n {
+        values[pattern.slot(i, i)] += degree[i] * (1.0 + sigma);
+    }
+    let solver = CholeskySolver::new(&pattern)?;
+    let factor = solver.factor(&pattern, &values)?;
+    let vol: f64 = degree.iter().sum();
+    let deflate = |y: &mut [f64]| {
+        let c = y.iter().zip(&degree).map(|(a, d)| a * d).sum::<f64>() / vol;
+        y.iter_mut().for_each(|a| *a -= c);
+        let norm = y.iter().zip(&degree).map(|(a, d)| a * a * d).sum::<f64>().sqrt();
+        if norm > 0.0 {
+            y.iter_mut().for_each(|a| *a /= norm);
+        }
+    };
+    let mut rng = SplitMix64::new(seed);
+    let mut y: Vec<f64> = (0..n).map(|_| rng.next_f64() - 0.5).collect();
+    deflate(&mut y);
+    for _ in 0..ITERATIONS {
+        let mut rhs: Vec<f64> = y.iter().zip(&degree).map(|(a, d)| a * d).collect();
+        factor.solve_in_place(&mut rhs);
+        y = rhs;
+        deflate(&mut y);
+    }
+    // Sweep.
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| y[a].total_cmp(&y[b]).then(a.cmp(&b)));
+    let mut adj: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    for &(i, j, w) in &arcs {
+        adj[i].push((j, w));
+        adj[j].push((i, w));
+    }
+    let face_area: Vec<f64> = faces.iter().map(|&f| mesh.face_area(f)).collect();
+    let total_area: f64 = face_area.iter().sum();
+    let mut in_s = vec![false; n];
+    let (mut cut, mut vol_s, mut area_s) = (0.0, 0.0, 0.0);
+    let mut cands: Vec<(f64, usize)> = Vec::new();
+    for (k, &i) in order.iter().enumerate().take(n - 1) {
+        in_s[i] = true;
+        vol_s += degree[i];
+        area_s += face_area[i];
+        for &(j, w) in &adj[i] {
+            if in_s[j] {
+                cut -= w;
+            } else {
+                cut += w;
+            }
+        }
+        let frac = area_s / total_area;
+        if (MIN_SIDE..=1.0 - MIN_SIDE).contains(&frac) {
+            let ncut = cut.max(0.0) * (1.0 / vol_s + 1.0 / (vol - vol_s));
+            cands.push((ncut, k));
+        }
+    }
+    cands.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    // Keep candidates distinct enough: skip positions within 2% of the faces of a tried one.
+    let mut tried: Vec<usize> = Vec::new();
+    let spacing = (n / 50).max(1);
+    for &(ncut, k) in &cands {
+        if tried.len() >= MAX_CANDIDATES {
+            break;
+        }
+        if tried.iter().any(|&t| t.abs_diff(k) < spacing) {
+            continue;
+        }
+        tried.push(k);
+        let mut a: Vec<FaceId> = order[..=k].iter().map(|&i| faces[i]).collect();
+        let mut b: Vec<FaceId> = order[k + 1..].iter().map(|&i| faces[i]).collect();
+        a.sort_unstable();
+        b.sort_unstable();
+        let side_label = |f: FaceId| -> u32 {
+            if label(f) != own {
+                label(f)
+            } else if a.binary_search(&f).is_ok() {
+                u32::MAX
+            } else {
+                u32::MAX - 1
+            }
+        };
+        let info_a = region_info(mesh, &a, &side_label, seam, rule);
+        if !info_a.is_disk() {
+            continue;
+        }
+        let info_b = region_info(mesh, &b, &side_label, seam, rule);
+        if !info_b.is_disk() {
+            continue;
+        }
+        return Ok(Some(Split { a, b, info_a, info_b, ncut }));
+    }
+    Ok(None)
+}
+
+/// Replace the interface of a spectral split by a field-aligned cut: from the interface's
+/// middle vertex, trace along the field arm closest to the interface's chord in both directions
+/// until the patch boundary (T-junctions on the patch's sides). A quad split this way gives two
+/// quads, and the new seam follows the field like the traced ones. `None` when the cut does not
+/// give two disks with at least 10% of the area each.
+#[allow(clippy::too_many_arguments)]
+pub fn field_aligned_split(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    split: &Split,
+    vf: &VertexField,
+    trace: &TraceOptions,
+    rule: &CornerRule,
+) -> Option<Split> {
+    let own = label(faces[0]);
+    let in_patch = |f: FaceId| faces.binary_search(&f).is_ok();
+    let in_a = |f: FaceId| split.a.binary_search(&f).is_ok();
+    // Interface edges between the two sides, as a vertex path.
+    let mut adj: BTreeMap<VertexId, Vec<VertexId>> = BTreeMap::new();
+    for &f in &split.a {
+        for k in 0..3 {
+            let h = mesh.face_halfedge(f, k);
+            let Some(t) = mesh.twin(h) else { continue };
+            let g = mesh.face(t);
+            if in_patch(g) && !in_a(g) && !seam(mesh.edge(h)) {
+                let (u, v) = (mesh.tail(h), mesh.head(h));
+                adj.entry(u).or_default().push(v);
+                adj.entry(v).or_default().push(u);
+            }
+        }
+    }
+    let start = adj.iter().find(|(_, n)| n.len() == 1).map(|(&v, _)| v)?;
+    let mut path = vec![start];
+    let mut prev = start;
+    let mut cur = adj[&start][0];
+    loop {
+        path.push(cur);
+        let next: Vec<VertexId> = adj[&cur].iter().copied().filter(|&w| w != prev).collect();
+        match next.as_slice() {
+            [] => break,
+            [w] if !path.contains(w) => {
+                prev = cur;
+                cur = *w;
+            }
+            _ => return None,
+        }
+    }
+    let on_boundary = |v: VertexId| -> bool {
+        mesh.is_boundary_vertex(v) || mesh.outgoing(v).any(|h| seam(mesh.edge(h)) || label(mesh.face(h)) != own)
+    };
+    // The middle interior vertex of the interface.
+    let interior: Vec<VertexId> = path.iter().copied().filter(|&v| !on_boundary(v)).collect();
+    let m = *interior.get(interior.len() / 2)?;
+    let chord = mesh.position(*path.last()?) - mesh.position(path[0]);
+    let (k, _) = vf.best_arm(m, &chord);
+    let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
+    let seam_at =
+        |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
+    let half1 = field_path(mesh, vf, m, k, None, trace, &|v| touches(v), &on_boundary, &seam_at)?;
+    let used: BTreeSet<VertexId> = half1.iter().copied().collect();
+    let half2 = field_path(
+        mesh,
+        vf,
+        m,
+        (k + 2) % 4,
+        None,
+        trace,
+        &|v| touches(v) && !used.contains(&v),
+        &on_boundary,
+        &seam_at,
+    )?;
+    let mut cut: Vec<VertexId> = half1.into_iter().rev().collect();
+    cut.extend_from_slice(&half2[1..]);
+    // The two sides: patch faces connected across edges that are neither cuts nor the new seam.
+    let cut_edges: BTreeSet<EdgeId> = cut.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
+    let mut uf = UnionFind::new(faces.len());
+    for (i, &f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let h = mesh.face_halfedge(f, k);
+            let Some(t) = mesh.twin(h) else { continue };
+            let e = mesh.edge(h);
+            if seam(e) || cut_edges.contains(&e) {
+                continue;
+            }
+            if let Ok(j) = faces.binary_search(&mesh.face(t)) {
+                uf.union(i as u32, j as u32);
+            }
+        }
+    }
+    let (labels, n) = uf.labels();
+    if n != 2 {
+        return None;
+    }
+    let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
+    let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
+    let area = |fs: &[FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
+    let (aa, ab) = (area(&a), area(&b));
+    if aa.min(ab) < (2.0 / 3.0) * MIN_SIDE * (aa + ab) {
+        return None;
+    }
+    let side_label = |f: FaceId| -> u32 {
+        if label(f) != own {
+            label(f)
+        } else if a.binary_search(&f).is_ok() {
+            u32::MAX
+        } else {
+            u32::MAX - 1
+        }
+    };
+    let seam_all = |e: EdgeId| seam(e);
+    let info_a = region_info(mesh, &a, &side_label, &seam_all, rule);
+    let info_b = region_info(mesh, &b, &side_label, &seam_all, rule);
+    (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: split.ncut })
+}

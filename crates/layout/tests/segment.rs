@@ -1,0 +1,260 @@
+//! Segmentation tests (issue 5): tracing follows the field, T-junctions, the cube layout of a
+//! sphere, disks on genus 1 and 4, seams as edge paths closing into patch boundaries, remeshing
+//! keeps the surface without slivers, determinism.
+
+use clothcast_field::cross::connection;
+use clothcast_field::synthesis::FieldSource;
+use clothcast_field::{CrossField, FieldOptions, Singularity, compute_field};
+use clothcast_layout::patches::edge_between;
+use clothcast_layout::trace::{SeparatrixEnd, TraceOptions, trace_separatrices};
+use clothcast_layout::vertex_field::VertexField;
+use clothcast_layout::{LayoutOptions, Segmentation, segment};
+use clothcast_mesh::io::read_mesh_file;
+use clothcast_mesh::{FaceData, Mesh, Vec3, VertexId, shapes};
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+
+fn data(rel: &str) -> Mesh {
+    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel);
+    Mesh::try_from_soup(&read_mesh_file(&p).unwrap()).unwrap()
+}
+
+/// A constant world direction as a cross field (projected on every face).
+fn constant_field(mesh: &Mesh, world: Vec3) -> CrossField {
+    let rho = connection(mesh);
+    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&world)).collect();
+    CrossField::from_angles(mesh, &rho, theta)
+}
+
+/// The curvature cross field of a mesh (smoothed and relaxed like the strain field).
+fn curvature_field(mesh: &Mesh) -> (CrossField, Vec<Singularity>) {
+    let opts = FieldOptions { source: FieldSource::Curvature, ..Default::default() };
+    let r = compute_field(mesh, None, &opts).unwrap();
+    (r.field, r.singularities)
+}
+
+/// The cube's cross field on a sphere: on the region nearest to each cube face, the directions
+/// of the cube face's grid lines projected on the tangent plane. It is the smoothest cross field
+/// with the cube's symmetry; singular (valence 3) at the 8 cube corners.
+fn cube_field(mesh: &Mesh) -> (CrossField, Vec<Singularity>) {
+    let rho = connection(mesh);
+    let theta: FaceData<f64> = mesh
+        .face_ids()
+        .map(|f| {
+            let c = mesh.face_centroid(f);
+            let a = (0..3).max_by(|&i, &j| c[i].abs().total_cmp(&c[j].abs())).unwrap();
+            let mut e = Vec3::zeros();
+            e[(a + 1) % 3] = 1.0;
+            mesh.face_frame(f).angle_of(&e)
+        })
+        .collect();
+    let field = CrossField::from_angles(mesh, &rho, theta);
+    let sing = field.singularities(mesh, &rho);
+    (field, sing)
+}
+
+/// Every patch a disk, every singularity on a seam, every seam an edge path, and the seams are
+/// exactly the edges between different patches (plus self-seams).
+fn check_valid(name: &str, seg: &Segmentation) {
+    let s = &seg.stats;
+    assert_eq!(s.disks, s.patches, "{name}: not all patches are disks");
+    assert!(seg.patches.iter().all(|p| p.euler == 1 && p.loops == 1), "{name}");
+    assert_eq!(s.singularities_inside_patches, 0, "{name}: singularity inside a patch");
+    let m = &seg.mesh;
+    let mut seam_edges = BTreeSet::new();
+    for (i, sm) in seg.seams.iter().enumerate() {
+        assert!(sm.vertices.len() >= 2, "{name}: seam {i} too short");
+        for w in sm.vertices.windows(2) {
+            let e = edge_between(m, w[0], w[1]).unwrap_or_else(|| panic!("{name}: seam {i} is not an edge path"));
+            assert!(seam_edges.insert(e), "{name}: edge {e:?} in two seams");
+            let (a, b) = m.edge_faces(e);
+            let pa = seg.patch_of_face[a];
+            let pb = b.map(|b| seg.patch_of_face[b]).unwrap_or(pa);
+            let mut got = [pa, pb];
+            let mut want = sm.patches;
+            got.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(got, want, "{name}: seam {i} names the wrong patches");
+        }
+    }
+    for e in m.edges() {
+        if let (a, Some(b)) = m.edge_faces(e)
+            && seg.patch_of_face[a] != seg.patch_of_face[b]
+        {
+            assert!(seam_edges.contains(&e), "{name}: edge between patches {e:?} is on no seam");
+        }
+    }
+}
+
+fn report(name: &str, seg: &Segmentation) {
+    let s = &seg.stats;
+    eprintln!(
+        "{name}: {} patches, quad {:.2}, corners {:?}, dev {:.1}°, dmax {:.2}, merges {}, splits {}, straightened {}, min angle new {:.1}° (input {:.1}°)",
+        s.patches,
+        s.quad_fraction,
+        s.corners,
+        s.seam_field_deviation_median_deg,
+        s.developability_max,
+        s.merges,
+        s.splits,
+        s.straightened,
+        s.min_angle_new_deg,
+        s.min_angle_input_deg
+    );
+}
+
+/// On an open cylinder with the field along its axis, a separatrix runs straight along a
+/// generator (or a circle) to the rim: every step is aligned with the field.
+#[test]
+fn tracing_follows_the_field_on_a_cylinder() {
+    let m = shapes::cylinder(1.0, 3.0, 32, 30, false, false);
+    let field = constant_field(&m, Vec3::z());
+    let vf = VertexField::from_face_field(&m, &field);
+    let dirs = field.directions(&m);
+    // A fake index-3 "singularity" half-way up emits exactly one separatrix.
+    let c =
+        m.vertices().min_by(|a, b| (m.position(*a).z - 1.5).abs().total_cmp(&(m.position(*b).z - 1.5).abs())).unwrap();
+    let seps = trace_separatrices(&m, &vf, &dirs, &[Singularity { vertex: c, index: 3 }], &TraceOptions::default());
+    assert_eq!(seps.len(), 1);
+    let p = &seps[0];
+    assert_eq!(p.end, SeparatrixEnd::Boundary);
+    for w in p.vertices.windows(2) {
+        let d = m.position(w[1]) - m.position(w[0]);
+        let along_axis = d.x.abs() < 1e-9 && d.y.abs() < 1e-9;
+        let around = d.z.abs() < 1e-9;
+        assert!(along_axis || around, "step {d} deviates from the field");
+    }
+}
+
+/// A separatrix that meets an earlier one across it stops there (a T-junction), arriving at
+/// about 90°.
+#[test]
+fn separatrices_stop_at_t_junctions() {
+    let m = shapes::grid(30, 30, 1.0, 1.0);
+    let field = constant_field(&m, Vec3::x());
+    let vf = VertexField::from_face_field(&m, &field);
+    let dirs = field.directions(&m);
+    let id = |i: u32, j: u32| VertexId(j * 31 + i);
+    // Two index-2 "singularities" (two opposite separatrices each) on different rows and
+    // columns: whichever way they go, lines through both cross, so one must end in a T.
+    let sing = [Singularity { vertex: id(10, 12), index: 2 }, Singularity { vertex: id(18, 20), index: 2 }];
+    for seed in 1..6 {
+        let seps = trace_separatrices(&m, &vf, &dirs, &sing, &TraceOptions { seed, ..Default::default() });
+        let ts: Vec<_> = seps.iter().filter(|s| matches!(s.end, SeparatrixEnd::TJunction(_))).collect();
+        let lines: BTreeSet<(bool, i64)> = seps
+            .iter()
+            .map(|s| {
+                let d = m.position(s.vertices[1]) - m.position(s.vertices[0]);
+                let p = m.position(s.vertices[0]);
+                if d.x.abs() > d.y.abs() {
+                    (true, (p.y * 30.0).round() as i64)
+                } else {
+                    (false, (p.x * 30.0).round() as i64)
+                }
+            })
+            .collect();
+        let horizontal = lines.iter().any(|l| l.0);
+        let vertical = lines.iter().any(|l| !l.0);
+        if horizontal && vertical {
+            assert!(!ts.is_empty(), "seed {seed}: crossing lines without a T-junction");
+        }
+        for t in ts {
+            let SeparatrixEnd::TJunction(k) = t.end else { unreachable!() };
+            let end = *t.vertices.last().unwrap();
+            let before = t.vertices[t.vertices.len() - 2];
+            let other = &seps[k];
+            let i = other.vertices.iter().position(|&v| v == end).expect("ends on the other separatrix");
+            let tangent = m.position(other.vertices[i + 1]) - m.position(other.vertices[i - 1]);
+            let arrive = m.position(end) - m.position(before);
+            let cos = arrive.dot(&tangent).abs() / (arrive.norm() * tangent.norm());
+            assert!(cos < 0.1, "seed {seed}: T-junction at {cos:.2}");
+        }
+    }
+}
+
+#[test]
+fn sphere_cube_field_gives_a_cube() {
+    let m = shapes::cube_sphere(12, 1.0);
+    let (field, sing) = cube_field(&m);
+    assert_eq!(sing.len(), 8);
+    assert!(sing.iter().all(|s| s.index == 1), "valence-3 corners");
+    // Each face of the cube layout scores 4π/6 ≈ 2.09 < 2.5 (the default): no split, and no
+    // merge (two faces would score 4.2).
+    let seg = segment(&m, &field, &sing, &LayoutOptions::default()).unwrap();
+    report("sphere", &seg);
+    check_valid("sphere", &seg);
+    assert_eq!(seg.stats.patches, 6);
+    assert!(seg.stats.corners.iter().all(|&c| c == 4), "{:?}", seg.stats.corners);
+    // The corners are the 8 singularities.
+    let corners: BTreeSet<VertexId> = seg.patches.iter().flat_map(|p| p.corners.iter().copied()).collect();
+    let singular: BTreeSet<VertexId> = sing.iter().map(|s| s.vertex).collect();
+    assert_eq!(corners, singular);
+    assert!((seg.stats.quad_fraction - 1.0).abs() < 1e-12);
+}
+
+/// Genus 1 (a torus, no seams from singularities at all with a perfect field) and genus 4
+/// (fertility): extra cuts make every patch a disk.
+#[test]
+fn every_patch_is_a_disk_on_genus_1_and_4() {
+    let torus = shapes::torus(2.0, 0.7, 48, 24);
+    let field = constant_field(&torus, Vec3::z());
+    let sing = field.singularities(&torus, &connection(&torus));
+    let seg = segment(&torus, &field, &sing, &LayoutOptions::default()).unwrap();
+    report("torus (constant field)", &seg);
+    check_valid("torus", &seg);
+    assert!(seg.stats.extra_cuts > 0);
+
+    let fert = data("closed/fertility.off");
+    assert_eq!(fert.genus(), 4);
+    let (field, sing) = curvature_field(&fert);
+    let seg = segment(&fert, &field, &sing, &LayoutOptions::default()).unwrap();
+    report("fertility (curvature field)", &seg);
+    check_valid("fertility", &seg);
+}
+
+/// Remeshing keeps the surface: every vertex lies on its parent face (Hausdorff distance at
+/// round-off), the area is unchanged, and new triangles keep reasonable angles.
+#[test]
+fn remeshing_keeps_the_surface_without_slivers() {
+    for (name, m) in [("bunny", data("closed/bunny.obj")), ("camelhead", data("open/camelhead.ply"))] {
+        let (field, sing) = curvature_field(&m);
+        let seg = segment(&m, &field, &sing, &LayoutOptions::default()).unwrap();
+        report(name, &seg);
+        check_valid(name, &seg);
+        assert!(seg.stats.straightened, "{name}: seams not straightened");
+        let diag = m.bbox().extent().norm();
+        let r = &seg.mesh;
+        let mut worst: f64 = 0.0;
+        for f in r.face_ids() {
+            let parent = seg.face_parent[f];
+            let [a, b, c] = m.face_positions(parent);
+            let n = (b - a).cross(&(c - a)).normalize();
+            for p in r.face_positions(f) {
+                worst = worst.max((p - a).dot(&n).abs());
+            }
+        }
+        assert!(worst < 1e-9 * diag, "{name}: vertex off its parent face by {worst:e}");
+        assert!((r.total_area() - m.total_area()).abs() < 1e-9 * m.total_area(), "{name}: area changed");
+        let floor = 2.0f64.min(0.5 * seg.stats.min_angle_input_deg);
+        assert!(seg.stats.min_angle_new_deg >= floor, "{name}: new triangle angle {:.2}°", seg.stats.min_angle_new_deg);
+    }
+}
+
+#[test]
+fn same_seed_same_segmentation_other_seeds_valid() {
+    let m = data("closed/bunny.obj");
+    let (field, sing) = curvature_field(&m);
+    let opts = LayoutOptions::default();
+    let a = segment(&m, &field, &sing, &opts).unwrap();
+    let b = segment(&m, &field, &sing, &opts).unwrap();
+    assert_eq!(a.patch_of_face.as_slice(), b.patch_of_face.as_slice());
+    assert_eq!(a.mesh.positions().as_slice(), b.mesh.positions().as_slice());
+    assert_eq!(a.seams.len(), b.seams.len());
+    for (x, y) in a.seams.iter().zip(&b.seams) {
+        assert_eq!(x.vertices, y.vertices);
+    }
+    for seed in [2, 3] {
+        let s = segment(&m, &field, &sing, &LayoutOptions { seed, ..opts.clone() }).unwrap();
+        check_valid(&format!("bunny seed {seed}"), &s);
+    }
+}
