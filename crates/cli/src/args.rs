@@ -35,6 +35,8 @@ pub enum Command {
     Simulate(RunArgs),
     /// Run the simulation and the cross field: adds strain_raw.ply and cross_field.ply.
     Field(RunArgs),
+    /// Run up to the segmentation into patches: adds segmentation.ply and seams.obj.
+    Segment(RunArgs),
     /// Validate a mesh and print its topology and every problem found.
     ///
     /// Exit code 0 if the mesh is usable (with the given --repair/--largest-component), 2 if not.

@@ -30,6 +30,8 @@ pub struct Config {
     pub solver: SolverSection,
     /// Cross field.
     pub field: FieldSection,
+    /// Segmentation into patches.
+    pub layout: LayoutSection,
 }
 
 impl Default for Config {
@@ -43,6 +45,51 @@ impl Default for Config {
             supports: Vec::new(),
             solver: SolverSection::default(),
             field: FieldSection::default(),
+            layout: LayoutSection::default(),
+        }
+    }
+}
+
+/// `[layout]`: the segmentation into patches.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LayoutSection {
+    /// D of the tracing cost ℓ (1 + D (φ/φmax)²).
+    pub drift_penalty: f64,
+    /// φmax: largest deviation (degrees) of a traced seam step from the field.
+    pub max_deviation: f64,
+    /// A separatrix this close (mean edge lengths) to another singularity ends there.
+    pub capture_radius: f64,
+    /// Straighten seams into geodesics and remesh along them.
+    pub smooth_seams: bool,
+    /// Pins along the traced seams every this many mean edge lengths (0: none).
+    pub pin_spacing: f64,
+    /// Merge adjacent patches when the union is a developable quad.
+    pub merge: bool,
+    /// Split patches whose developability score exceeds this (`inf`: never).
+    pub max_developability: f64,
+    /// Patches below this share of the area are merged into a neighbour.
+    pub min_patch_fraction: f64,
+    /// Remeshing: seam crossings this close to a vertex (share of the edge) snap to it.
+    pub snap: f64,
+    /// Most developability splits.
+    pub max_splits: usize,
+}
+
+impl Default for LayoutSection {
+    fn default() -> Self {
+        let d = clothcast_layout::LayoutOptions::default();
+        Self {
+            drift_penalty: d.drift_penalty,
+            max_deviation: d.max_deviation_deg,
+            capture_radius: d.capture_radius,
+            smooth_seams: d.smooth_seams,
+            pin_spacing: d.pin_spacing,
+            merge: d.merge,
+            max_developability: d.max_developability,
+            min_patch_fraction: d.min_patch_fraction,
+            snap: d.snap,
+            max_splits: d.max_splits,
         }
     }
 }
@@ -60,7 +107,7 @@ pub struct FieldSection {
     pub alpha: f64,
     /// Singularities closer than this fraction of the bounding-box diagonal may be combined.
     pub relax_radius: f64,
-    /// Largest rise of the field energy accepted for merging two valence-5 singularities.
+    /// Largest rise of the field energy accepted for one merge or cancellation of singularities.
     pub relax_merge_energy: f64,
 }
 
@@ -483,6 +530,27 @@ impl Config {
             ));
         }
         non_negative("field", "relax_merge_energy", f.relax_merge_energy)?;
+        let l = &self.layout;
+        non_negative("layout", "drift_penalty", l.drift_penalty)?;
+        if !(l.max_deviation > 0.0 && l.max_deviation <= 90.0) {
+            return Err(err("layout", "max_deviation", l.max_deviation.to_string(), "must lie in (0, 90] degrees"));
+        }
+        non_negative("layout", "capture_radius", l.capture_radius)?;
+        non_negative("layout", "pin_spacing", l.pin_spacing)?;
+        if !(l.max_developability > 0.0) {
+            return Err(err(
+                "layout",
+                "max_developability",
+                l.max_developability.to_string(),
+                "must be positive (inf: never split)",
+            ));
+        }
+        if !(0.0..0.5).contains(&l.min_patch_fraction) {
+            return Err(err("layout", "min_patch_fraction", l.min_patch_fraction.to_string(), "must lie in [0, 0.5)"));
+        }
+        if !(0.0..=0.5).contains(&l.snap) {
+            return Err(err("layout", "snap", l.snap.to_string(), "must lie in [0, 0.5]"));
+        }
         Ok(())
     }
 }

@@ -24,6 +24,9 @@ pub struct Stages {
     /// The cross field.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub field: Option<StageTime>,
+    /// The segmentation into patches.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub segmentation: Option<StageTime>,
 }
 
 /// The whole summary.
@@ -43,6 +46,9 @@ pub struct Summary {
     /// The cross field.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub field: Option<clothcast_field::FieldStats>,
+    /// The segmentation into patches.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub segmentation: Option<clothcast_layout::SegmentationStats>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

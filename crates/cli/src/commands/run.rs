@@ -19,6 +19,8 @@ pub enum Until {
     Simulation,
     /// Stop after the cross field.
     Field,
+    /// Stop after the segmentation.
+    Segmentation,
     /// Every stage that exists.
     All,
 }
@@ -75,6 +77,18 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         None
     };
 
+    // Stage 3: segmentation.
+    let segmentation = match &field {
+        Some(f) if until >= Until::Segmentation => {
+            let seg = stages::segmentation::run(&cfg, &input, f, progress)?;
+            stages.segmentation = Some(StageTime { seconds: seg.stats.seconds });
+            stages::segmentation::write_outputs(&args.out, &input, &seg)?;
+            written.extend(["segmentation.ply", "seams.obj"]);
+            Some(seg)
+        }
+        _ => None,
+    };
+
     let summary = Summary {
         version: env!("CARGO_PKG_VERSION"),
         input: input.summary(),
@@ -82,6 +96,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         stages,
         simulation: Some(sim.stats.clone()),
         field: field.map(|f| f.stats),
+        segmentation: segmentation.map(|s| s.stats),
         seconds_total: t0.elapsed().as_secs_f64(),
     };
     let path = args.out.join("summary.json");

@@ -2,4 +2,5 @@
 //! writes the stage's files and returns its summary section.
 
 pub mod field;
+pub mod segmentation;
 pub mod simulation;

@@ -1,0 +1,92 @@
+//! Stage 3: segmentation into patches (`segmentation.ply`, `seams.obj`, summary `segmentation`).
+
+use crate::config::Config;
+use crate::failure::{Blame, Failure};
+use crate::input::Input;
+use crate::progress::Progress;
+use anyhow::Context;
+use clothcast_field::FieldResult;
+use clothcast_layout::{LayoutOptions, Segmentation, segment};
+use clothcast_mesh::Vec3;
+use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
+use std::io::Write;
+use std::path::Path;
+
+/// The library options from the scenario.
+pub fn options(cfg: &Config) -> LayoutOptions {
+    let l = &cfg.layout;
+    LayoutOptions {
+        drift_penalty: l.drift_penalty,
+        max_deviation_deg: l.max_deviation,
+        capture_radius: l.capture_radius,
+        smooth_seams: l.smooth_seams,
+        pin_spacing: l.pin_spacing,
+        merge: l.merge,
+        max_developability: l.max_developability,
+        min_patch_fraction: l.min_patch_fraction,
+        snap: l.snap,
+        max_splits: l.max_splits,
+        seed: cfg.seed,
+    }
+}
+
+/// Segment the target along the field.
+pub fn run(cfg: &Config, input: &Input, field: &FieldResult, progress: &Progress) -> Result<Segmentation, Failure> {
+    let stage = progress.stage("segmenting into patches");
+    let seg = segment(&input.mesh, &field.field, &field.singularities, &options(cfg)).internal()?;
+    drop(stage);
+    let s = &seg.stats;
+    progress.say(format!(
+        "segmentation: {} patches ({:.0}% quads, {} tiny), {} seams {:.2} m, seam-field deviation median {:.1}°, developability max {:.2}, {} merges, {} splits, {:.2} s",
+        s.patches,
+        100.0 * s.quad_fraction,
+        s.tiny_patches,
+        seg.seams.len(),
+        s.seam_length_m / input.to_metres,
+        s.seam_field_deviation_median_deg,
+        s.developability_max,
+        s.merges,
+        s.splits,
+        s.seconds
+    ));
+    if s.singularities_inside_patches > 0 {
+        progress.say(format!("warning: {} singularities lie inside patches", s.singularities_inside_patches));
+    }
+    Ok(seg)
+}
+
+/// Write `segmentation.ply` (remeshed target, per-face `patch`) and `seams.obj` (one `o`
+/// object per seam with `l` records).
+pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation) -> Result<(), Failure> {
+    let m = &seg.mesh;
+    let pos: Vec<Vec3> = m.positions().iter().map(|p| p / input.to_metres).collect();
+    let tris: Vec<[u32; 3]> = m.faces().iter().map(|t| t.map(|v| v.0)).collect();
+    let patch: Vec<i32> = seg.patch_of_face.iter().map(|&p| p as i32).collect();
+    let parent: Vec<i32> = seg.face_parent.iter().map(|f| f.0 as i32).collect();
+    let fattr = [Attribute::i32("patch", patch), Attribute::i32("parent_face", parent)];
+    let comment = "clothcast segmentation: the target remeshed along the seams; patch = patch id per face, parent_face = face of the input mesh containing it";
+    let path = out.join("segmentation.ply");
+    write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, comment, &pos, &tris, &[], &fattr))
+        .with_context(|| format!("cannot write {}", path.display()))
+        .internal()?;
+
+    let path = out.join("seams.obj");
+    write_atomic(&path, |w| {
+        writeln!(w, "# clothcast seams: one object per seam, named seam_<id>_<patch a>_<patch b>,")?;
+        writeln!(w, "# a polyline of the segmentation.ply vertices (same numbering, same units).")?;
+        for p in &pos {
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for (i, s) in seg.seams.iter().enumerate() {
+            writeln!(w, "o seam_{}_{}_{}", i, s.patches[0], s.patches[1])?;
+            write!(w, "l")?;
+            for v in &s.vertices {
+                write!(w, " {}", v.0 + 1)?;
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+    .internal()
+}

@@ -1,0 +1,106 @@
+//! End-to-end tests of the segmentation stage through the binary.
+
+use clothcast_mesh::io::{read_ply, read_ply_properties};
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("clothcast-segment-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_clothcast")).args(args).output().expect("binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+#[test]
+fn segment_writes_patches_seams_and_summary() {
+    let out = tmpdir("basic");
+    let o = run(&["segment", "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let g = &s["segmentation"];
+    for k in [
+        "patches",
+        "disks",
+        "tiny_patches",
+        "corners",
+        "quad_fraction",
+        "singularities_inside_patches",
+        "seam_length_m",
+        "seam_field_deviation_median_deg",
+        "developability_max",
+        "merges",
+        "splits",
+        "seconds",
+    ] {
+        assert!(!g[k].is_null(), "segmentation.{k} missing");
+    }
+    let patches = g["patches"].as_u64().unwrap() as usize;
+    assert!(patches >= 2);
+    assert_eq!(g["disks"].as_u64().unwrap() as usize, patches);
+    assert_eq!(g["corners"].as_array().unwrap().len(), patches);
+    assert_eq!(g["singularities_inside_patches"], 0);
+    assert!(s["stages"]["segmentation"]["seconds"].as_f64().is_some());
+
+    // segmentation.ply: a per-face patch id covering 0..patches.
+    let bytes = std::fs::read(out.join("segmentation.ply")).unwrap();
+    let soup = read_ply(&bytes, "segmentation.ply").unwrap();
+    let props = read_ply_properties(&bytes, "segmentation.ply").unwrap();
+    let ids: BTreeSet<i64> = props["face"]["patch"].iter().map(|&p| p as i64).collect();
+    assert_eq!(ids, (0..patches as i64).collect());
+    assert_eq!(props["face"]["patch"].len(), soup.triangles.len());
+
+    // seams.obj: one object per seam named seam_<id>_<a>_<b>, each with an `l` record of at
+    // least two vertices, referring to the segmentation's vertices.
+    let obj = std::fs::read_to_string(out.join("seams.obj")).unwrap();
+    let n_v = obj.lines().filter(|l| l.starts_with("v ")).count();
+    assert_eq!(n_v, soup.positions.len());
+    let objects: Vec<&str> = obj.lines().filter(|l| l.starts_with("o ")).collect();
+    let lines: Vec<&str> = obj.lines().filter(|l| l.starts_with("l ")).collect();
+    assert_eq!(objects.len(), lines.len());
+    assert!(!objects.is_empty());
+    for (i, (o, l)) in objects.iter().zip(&lines).enumerate() {
+        let parts: Vec<&str> = o[2..].split('_').collect();
+        assert_eq!(parts.len(), 4, "{o}");
+        assert_eq!(parts[0], "seam");
+        assert_eq!(parts[1].parse::<usize>().unwrap(), i);
+        for p in &parts[2..] {
+            assert!(p.parse::<usize>().unwrap() < patches);
+        }
+        let idx: Vec<usize> = l[2..].split_whitespace().map(|x| x.parse().unwrap()).collect();
+        assert!(idx.len() >= 2);
+        assert!(idx.iter().all(|&k| k >= 1 && k <= n_v));
+    }
+}
+
+#[test]
+fn same_seed_same_outputs() {
+    let a = tmpdir("seed-a");
+    let b = tmpdir("seed-b");
+    for d in [&a, &b] {
+        let o = run(&["segment", "-q", "--seed", "7", "-o", d.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    for f in ["segmentation.ply", "seams.obj"] {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
+}
+
+#[test]
+fn bad_layout_config_is_an_input_error() {
+    let out = tmpdir("badcfg");
+    let cfg = out.join("bad.toml");
+    std::fs::write(&cfg, "[layout]\nmax_deviation = 120.0\n").unwrap();
+    let o = run(&["segment", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("layout.max_deviation"), "{}", text(&o));
+}
