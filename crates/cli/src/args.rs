@@ -37,6 +37,9 @@ pub enum Command {
     Field(RunArgs),
     /// Run up to the segmentation into patches: adds segmentation.ply and seams.obj.
     Segment(RunArgs),
+    /// Run up to the sewing patterns: adds patterns/ (pattern.svg, pattern.dxf, pattern.pdf,
+    /// pattern_a4.pdf, flattened.obj).
+    Flatten(RunArgs),
     /// Validate a mesh and print its topology and every problem found.
     ///
     /// Exit code 0 if the mesh is usable (with the given --repair/--largest-component), 2 if not.
@@ -78,13 +81,13 @@ pub struct MeshArgs {
     /// Keep only the largest connected component instead of refusing several.
     #[arg(long)]
     pub largest_component: bool,
-    /// Units of the mesh coordinates (overrides [mesh] units).
+    /// Units of the mesh coordinates (overrides mesh.units in the config).
     #[arg(long, value_enum)]
     pub units: Option<Units>,
-    /// Rescale so the extent along up is this many metres (overrides [mesh] height).
+    /// Rescale so the extent along up is this many metres (overrides mesh.height).
     #[arg(long)]
     pub height: Option<f64>,
-    /// Suspension direction: +x, -x, +y, -y, +z or -z (overrides [mesh] up).
+    /// Suspension direction: +x, -x, +y, -y, +z or -z (overrides mesh.up).
     #[arg(long, allow_hyphen_values = true)]
     pub up: Option<String>,
 }

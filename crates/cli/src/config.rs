@@ -32,6 +32,8 @@ pub struct Config {
     pub field: FieldSection,
     /// Segmentation into patches.
     pub layout: LayoutSection,
+    /// Flattening, orientation and sewing patterns.
+    pub pattern: PatternSection,
 }
 
 impl Default for Config {
@@ -46,6 +48,49 @@ impl Default for Config {
             solver: SolverSection::default(),
             field: FieldSection::default(),
             layout: LayoutSection::default(),
+            pattern: PatternSection::default(),
+        }
+    }
+}
+
+/// `[pattern]`: flattening, orientation on the fabric, and the sewing patterns.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PatternSection {
+    /// "field" (warp/weft aligned with the cross field) or "longest-side" (the paper's
+    /// heuristics).
+    pub orientation: clothcast_flatten::Orientation,
+    /// Scale all pieces by one common factor so their total area equals the target's.
+    pub match_area: bool,
+    /// Sew line to cut line (mm).
+    pub seam_allowance_mm: f64,
+    /// Match marks every this many mm along a seam (and at its ends).
+    pub notch_spacing_mm: f64,
+    /// Length of a notch (mm).
+    pub notch_length_mm: f64,
+    /// Usable width of the fabric roll (mm).
+    pub fabric_width_mm: f64,
+    /// Allow pieces turned by 90° on the roll (warp and weft of similar stiffness).
+    pub allow_weft_swap: bool,
+    /// Spacing between nested pieces (mm).
+    pub piece_gap_mm: f64,
+    /// Label height (mm).
+    pub text_height_mm: f64,
+}
+
+impl Default for PatternSection {
+    fn default() -> Self {
+        let p = clothcast_pattern::PatternOptions::default();
+        Self {
+            orientation: clothcast_flatten::FlattenOptions::default().orientation,
+            match_area: clothcast_flatten::FlattenOptions::default().match_area,
+            seam_allowance_mm: p.seam_allowance_mm,
+            notch_spacing_mm: p.notch_spacing_mm,
+            notch_length_mm: p.notch_length_mm,
+            fabric_width_mm: p.fabric_width_mm,
+            allow_weft_swap: p.allow_weft_swap,
+            piece_gap_mm: p.piece_gap_mm,
+            text_height_mm: p.text_height_mm,
         }
     }
 }
@@ -551,6 +596,13 @@ impl Config {
         if !(0.0..=0.5).contains(&l.snap) {
             return Err(err("layout", "snap", l.snap.to_string(), "must lie in [0, 0.5]"));
         }
+        let p = &self.pattern;
+        non_negative("pattern", "seam_allowance_mm", p.seam_allowance_mm)?;
+        positive("pattern", "notch_spacing_mm", p.notch_spacing_mm)?;
+        non_negative("pattern", "notch_length_mm", p.notch_length_mm)?;
+        positive("pattern", "fabric_width_mm", p.fabric_width_mm)?;
+        non_negative("pattern", "piece_gap_mm", p.piece_gap_mm)?;
+        positive("pattern", "text_height_mm", p.text_height_mm)?;
         Ok(())
     }
 }

@@ -27,6 +27,12 @@ pub struct Stages {
     /// The segmentation into patches.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub segmentation: Option<StageTime>,
+    /// Flattening and orientation of the patches.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flattening: Option<StageTime>,
+    /// Building and writing the sewing patterns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub patterns: Option<StageTime>,
 }
 
 /// The whole summary.
@@ -49,6 +55,12 @@ pub struct Summary {
     /// The segmentation into patches.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub segmentation: Option<clothcast_layout::SegmentationStats>,
+    /// Flattening of the patches.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flattening: Option<clothcast_flatten::FlattenReport>,
+    /// The sewing patterns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub patterns: Option<crate::stages::patterns::PatternsSummary>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

@@ -35,4 +35,12 @@ pub enum FlattenError {
         /// What went wrong.
         reason: String,
     },
+    /// Flattening one patch of a segmentation failed.
+    #[error("patch {patch}: {source}")]
+    Patch {
+        /// The patch.
+        patch: u32,
+        /// What went wrong.
+        source: Box<FlattenError>,
+    },
 }

@@ -24,6 +24,8 @@
 
 pub mod bff;
 pub mod error;
+pub mod pieces;
 
 pub use bff::{BffOptions, Flattening, FlatteningStats, bff_flatten, distortion};
 pub use error::FlattenError;
+pub use pieces::{FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, SeamRun, flatten_segmentation};

@@ -11,7 +11,7 @@
 //! `∂²Ψ/∂x_a∂x_b = A0 (B_aᵀ C B_b + (∇N_aᵀ S ∇N_b) I₃)`.
 //!
 //! The first (material) term is PSD whenever the material tangent is; the second (geometric)
-//! term is indefinite under compression. [`Element::hessian_projected`] replaces S by its
+//! term is indefinite under compression. [`Element::evaluate`] (with `project`) replaces S by its
 //! positive part S⁺ in the geometric term, which gives a PSD Hessian that equals the exact one
 //! wherever the membrane is in tension (the common case under infill pressure), at the cost of
 //! two 2×2 eigen-decompositions instead of a 9×9 one.

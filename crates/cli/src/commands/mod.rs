@@ -21,6 +21,7 @@ pub fn dispatch(cli: &Cli) -> Result<(), Failure> {
         Command::Simulate(a) => run::run(a, &progress, run::Until::Simulation),
         Command::Field(a) => run::run(a, &progress, run::Until::Field),
         Command::Segment(a) => run::run(a, &progress, run::Until::Segmentation),
+        Command::Flatten(a) => run::run(a, &progress, run::Until::Patterns),
         Command::Check(a) => check::check(a, &progress),
         Command::Bench(a) => bench::bench(a, &progress),
         Command::Example(a) => write_example(&a.out, &progress),

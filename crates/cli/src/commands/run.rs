@@ -21,6 +21,8 @@ pub enum Until {
     Field,
     /// Stop after the segmentation.
     Segmentation,
+    /// Stop after the sewing patterns.
+    Patterns,
     /// Every stage that exists.
     All,
 }
@@ -89,6 +91,22 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         _ => None,
     };
 
+    // Stage 4: flattening and patterns.
+    let patterns = match (&field, &segmentation) {
+        (Some(f), Some(seg)) if until >= Until::Patterns => {
+            let mut p = stages::patterns::run(&cfg, &input, f, seg, progress)?;
+            let t = std::time::Instant::now();
+            let files = stages::patterns::write_outputs(&args.out, &input, seg, &p)?;
+            p.summary.seconds += t.elapsed().as_secs_f64();
+            p.summary.files = files;
+            stages.flattening = Some(StageTime { seconds: p.flat.report.seconds });
+            stages.patterns = Some(StageTime { seconds: p.summary.seconds });
+            Some(p)
+        }
+        _ => None,
+    };
+    let pattern_files: Vec<String> = patterns.as_ref().map(|p| p.summary.files.clone()).unwrap_or_default();
+
     let summary = Summary {
         version: env!("CARGO_PKG_VERSION"),
         input: input.summary(),
@@ -97,6 +115,8 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         simulation: Some(sim.stats.clone()),
         field: field.map(|f| f.stats),
         segmentation: segmentation.map(|s| s.stats),
+        flattening: patterns.as_ref().map(|p| p.flat.report.clone()),
+        patterns: patterns.map(|p| p.summary),
         seconds_total: t0.elapsed().as_secs_f64(),
     };
     let path = args.out.join("summary.json");
@@ -104,11 +124,16 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()?;
+    let mut written: Vec<String> = written.into_iter().map(String::from).collect();
+    written.extend(pattern_files.iter().cloned());
     progress.say(format!(
         "wrote {} and {} in {}",
         path.file_name().and_then(|n| n.to_str()).unwrap_or("summary.json"),
         written.join(", "),
         args.out.display()
     ));
+    if !pattern_files.is_empty() {
+        progress.say(format!("patterns to cut: {}", args.out.join("patterns").display()));
+    }
     Ok(())
 }

@@ -2,5 +2,6 @@
 //! writes the stage's files and returns its summary section.
 
 pub mod field;
+pub mod patterns;
 pub mod segmentation;
 pub mod simulation;

@@ -42,7 +42,7 @@ pub fn run(cfg: &Config, input: &Input, field: &FieldResult, progress: &Progress
         100.0 * s.quad_fraction,
         s.tiny_patches,
         seg.seams.len(),
-        s.seam_length_m / input.to_metres,
+        s.seam_length_m,
         s.seam_field_deviation_median_deg,
         s.developability_max,
         s.merges,

@@ -1,0 +1,267 @@
+//! Stage 4: flattening, orientation and sewing patterns (`patterns/pattern.svg`, `.dxf`,
+//! `.pdf`, `pattern_a4.pdf`, `flattened.obj`; summary `flattening` and `patterns`).
+
+use crate::config::Config;
+use crate::failure::{Blame, Failure};
+use crate::input::Input;
+use crate::progress::Progress;
+use anyhow::Context;
+use clothcast_field::FieldResult;
+use clothcast_flatten::{FlatPieces, FlattenOptions, flatten_segmentation};
+use clothcast_layout::Segmentation;
+use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
+use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
+use clothcast_pattern::{
+    MarkKind, Pattern, PatternOptions, PieceInput, PointMark, SeamSide, all_writers, build_pattern,
+};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// The `patterns` section of `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct PatternsSummary {
+    /// Pieces to cut.
+    pub pieces: usize,
+    /// Seams (each with two sides).
+    pub seams: usize,
+    /// Match marks over all pieces.
+    pub notches: usize,
+    /// Roll width (mm).
+    pub fabric_width_mm: f64,
+    /// Roll length used (mm).
+    pub fabric_length_mm: f64,
+    /// Piece (cut) area / used roll area.
+    pub utilisation: f64,
+    /// Sum of the pieces' sew-line areas (mm²), to compare with the target's area.
+    pub pieces_area_mm2: f64,
+    /// The files written (relative to the output directory).
+    pub files: Vec<String>,
+    /// Seconds.
+    pub seconds: f64,
+}
+
+/// What the stage produces.
+pub struct PatternsResult {
+    /// The flattened pieces.
+    pub flat: FlatPieces,
+    /// The patterns.
+    pub pattern: Pattern,
+    /// Summary section.
+    pub summary: PatternsSummary,
+}
+
+/// Label of a seam: a letter and a number (A1…A99, B1…).
+pub fn seam_label(id: usize) -> String {
+    let letter = (b'A' + ((id / 99) % 26) as u8) as char;
+    format!("{letter}{}", id % 99 + 1)
+}
+
+/// Flatten, orient, build the patterns.
+pub fn run(
+    cfg: &Config,
+    input: &Input,
+    field: &FieldResult,
+    seg: &Segmentation,
+    progress: &Progress,
+) -> Result<PatternsResult, Failure> {
+    let t0 = Instant::now();
+    let stage = progress.stage("flattening the patches");
+    let anisotropy: FaceData<f64> = seg.face_parent.map(|&f| field.raw.anisotropy[f]);
+    let opts = FlattenOptions {
+        orientation: cfg.pattern.orientation,
+        match_area: cfg.pattern.match_area,
+        ..Default::default()
+    };
+    let flat = flatten_segmentation(seg, &anisotropy, &opts).internal()?;
+    drop(stage);
+    let r = &flat.report;
+    progress.say(format!(
+        "flattening: {} pieces, {} flipped triangles, area {:.1}% of the target before scaling by {:.4}, area ratio {:.3}–{:.3}, qc mean {:.4} max {:.3}, seam length mismatch {:.2}%, fibre alignment median {:.1}° ({:?}; other rule {:.1}°), {:.2} s",
+        flat.patches.len(),
+        r.flipped_triangles,
+        100.0 * r.area_ratio_bff,
+        r.area_scale,
+        r.area_ratio_min,
+        r.area_ratio_max,
+        r.qc_mean,
+        r.qc_max,
+        100.0 * r.seam_length_mismatch_max_rel,
+        r.fiber_alignment_median_deg,
+        cfg.pattern.orientation,
+        r.fiber_alignment_other_rule_deg,
+        r.seconds
+    ));
+
+    let stage = progress.stage("building the patterns");
+    let t1 = Instant::now();
+    let marks = marks_per_piece(cfg, input, seg, &flat)?;
+    let mm = 1000.0;
+    let pieces: Vec<PieceInput> = flat
+        .patches
+        .iter()
+        .zip(&flat.runs)
+        .zip(marks)
+        .map(|((p, runs), marks)| PieceInput {
+            id: p.patch as usize,
+            name: format!("P{}", p.patch),
+            outline: p.outline.iter().map(|&v| [p.uv[v].x * mm, p.uv[v].y * mm]).collect(),
+            seams: runs
+                .iter()
+                .map(|r| SeamSide {
+                    seam: r.seam,
+                    label: seam_label(r.seam),
+                    start: r.start,
+                    end: r.end,
+                    forward: r.forward,
+                })
+                .collect(),
+            marks,
+        })
+        .collect();
+    let popts = PatternOptions {
+        seam_allowance_mm: cfg.pattern.seam_allowance_mm,
+        notch_spacing_mm: cfg.pattern.notch_spacing_mm,
+        notch_length_mm: cfg.pattern.notch_length_mm,
+        fabric_width_mm: cfg.pattern.fabric_width_mm,
+        allow_weft_swap: cfg.pattern.allow_weft_swap,
+        piece_gap_mm: cfg.pattern.piece_gap_mm,
+        text_height_mm: cfg.pattern.text_height_mm,
+    };
+    let pattern = build_pattern(&pieces, &popts).map_err(|e| {
+        // A piece wider than the roll is the user's choice of roll; anything else is ours.
+        if matches!(e, clothcast_pattern::PatternError::PieceTooWide { .. }) {
+            Failure::Input(anyhow::anyhow!("{e}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"))
+        } else {
+            Failure::Internal(anyhow::anyhow!("building the patterns: {e}"))
+        }
+    })?;
+    drop(stage);
+    let summary = PatternsSummary {
+        pieces: pattern.pieces.len(),
+        seams: pattern.stats.seams,
+        notches: pattern.stats.notches,
+        fabric_width_mm: pattern.fabric_width_mm,
+        fabric_length_mm: pattern.fabric_length_mm,
+        utilisation: pattern.utilisation,
+        pieces_area_mm2: pattern.stats.area_mm2_total,
+        files: Vec::new(),
+        seconds: t1.elapsed().as_secs_f64(),
+    };
+    progress.say(format!(
+        "patterns: {} pieces, {} seams, {} notches, roll {:.0} × {:.0} mm, utilisation {:.0}%, {:.2} s (stage {:.2} s)",
+        summary.pieces,
+        summary.seams,
+        summary.notches,
+        summary.fabric_width_mm,
+        summary.fabric_length_mm,
+        100.0 * summary.utilisation,
+        summary.seconds,
+        t0.elapsed().as_secs_f64()
+    ));
+    Ok(PatternsResult { flat, pattern, summary })
+}
+
+/// Suspension/clamp points and the pour opening, on the pieces where they fall (a few per
+/// piece: clamped vertices at least a notch spacing apart, at most 12).
+fn marks_per_piece(
+    cfg: &Config,
+    input: &Input,
+    seg: &Segmentation,
+    flat: &FlatPieces,
+) -> Result<Vec<Vec<PointMark>>, Failure> {
+    let scenario = crate::stages::simulation::scenario(cfg, input)?;
+    let constraints = clothcast_sim::scenario::suspension_constraints(&input.mesh, &scenario.suspension, &input.up)
+        .map_err(|e| Failure::Input(anyhow::anyhow!("{e}")))?;
+    // Segmented vertices that are clamped input vertices.
+    let clamped: VertexData<bool> = seg.vertex_input.map(|v| v.is_some_and(|v| constraints.n_fixed(v) >= 3));
+    // The pour opening: the highest point (of the mesh boundary for an open mold).
+    let up: Vec3 = input.up;
+    let height = |v: VertexId| seg.mesh.position(v).dot(&up);
+    let boundary: Vec<VertexId> = seg.mesh.vertices().filter(|&v| seg.mesh.is_boundary_vertex(v)).collect();
+    let pool: Vec<VertexId> = if boundary.is_empty() { seg.mesh.vertices().collect() } else { boundary };
+    let pour = pool.into_iter().max_by(|a, b| height(*a).total_cmp(&height(*b)).then(b.cmp(a)));
+    let spacing = cfg.pattern.notch_spacing_mm;
+    let mut pour_placed = false;
+    let mut out = Vec::with_capacity(flat.patches.len());
+    for p in &flat.patches {
+        let mut marks: Vec<PointMark> = Vec::new();
+        for v in p.mesh.vertices() {
+            let sv = p.seg_vertex[v];
+            let pos = [p.uv[v].x * 1000.0, p.uv[v].y * 1000.0];
+            if Some(sv) == pour && !pour_placed {
+                marks.push(PointMark { kind: MarkKind::Pour, position: pos, label: "pour".into() });
+                pour_placed = true;
+            }
+            if clamped[sv] && marks.iter().filter(|m| m.kind == MarkKind::Clamp).count() < 12 {
+                let far = marks.iter().filter(|m| m.kind == MarkKind::Clamp).all(|m| {
+                    let d = [m.position[0] - pos[0], m.position[1] - pos[1]];
+                    (d[0] * d[0] + d[1] * d[1]).sqrt() >= spacing
+                });
+                if far {
+                    marks.push(PointMark { kind: MarkKind::Clamp, position: pos, label: "clamp".into() });
+                }
+            }
+        }
+        out.push(marks);
+    }
+    Ok(out)
+}
+
+/// Write the pattern files into `out/patterns/` and `flattened.obj`; returns the file names
+/// (relative to `out`).
+pub fn write_outputs(
+    out: &Path,
+    input: &Input,
+    seg: &Segmentation,
+    r: &PatternsResult,
+) -> Result<Vec<String>, Failure> {
+    let dir = out.join("patterns");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display())).internal()?;
+    let mut files = Vec::new();
+    for w in all_writers() {
+        let path = dir.join(w.file_name());
+        let mut buf: Vec<u8> = Vec::new();
+        w.write(&r.pattern, &mut buf).map_err(|e| Failure::Internal(anyhow::anyhow!("writing {}: {e}", w.name())))?;
+        write_atomic(&path, |f| std::io::Write::write_all(f, &buf))
+            .with_context(|| format!("cannot write {}", path.display()))
+            .internal()?;
+        files.push(format!("patterns/{}", w.file_name()));
+    }
+    // flattened.obj: the segmented mesh (input units) with per-corner UVs in millimetres as laid
+    // out on the roll, one group per patch.
+    let positions: Vec<Vec3> = seg.mesh.positions().iter().map(|p| p / input.to_metres).collect();
+    let mut uvs: Vec<[f64; 2]> = Vec::new();
+    let mut faces: Vec<[u32; 3]> = Vec::new();
+    let mut face_uvs: Vec<[u32; 3]> = Vec::new();
+    let mut groups: Vec<(String, Vec<u32>)> = Vec::new();
+    for p in &r.flat.patches {
+        let piece = r
+            .pattern
+            .pieces
+            .iter()
+            .find(|q| q.id == p.patch as usize)
+            .ok_or_else(|| Failure::Internal(anyhow::anyhow!("patch {} has no pattern piece", p.patch)))?;
+        let base = uvs.len() as u32;
+        for v in p.mesh.vertices() {
+            uvs.push(piece.to_roll([p.uv[v].x * 1000.0, p.uv[v].y * 1000.0]));
+        }
+        let mut ids = Vec::with_capacity(p.mesh.n_faces());
+        for f in p.mesh.face_ids() {
+            let vs = p.mesh.face_vertices(f);
+            ids.push(faces.len() as u32);
+            faces.push(vs.map(|v| p.seg_vertex[v].0));
+            face_uvs.push(vs.map(|v| base + v.0));
+        }
+        groups.push((format!("patch_{}", p.patch), ids));
+    }
+    let path = dir.join("flattened.obj");
+    let header = "clothcast flattened patches: v = segmented target (input units), vt = piece coordinates in millimetres as laid out on the fabric roll (x along the roll = warp), one group per patch";
+    write_atomic(&path, |w| {
+        write_obj(w, header, &positions, &faces, Some(ObjUvs { uvs: &uvs, face_uvs: &face_uvs }), Some(&groups))
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+    .internal()?;
+    files.push("patterns/flattened.obj".into());
+    Ok(files)
+}

@@ -1,0 +1,139 @@
+//! End-to-end tests of the whole pipeline through the binary (issue 6): `clothcast run` writes
+//! every file, the pieces add up to the target's area, the pattern files agree.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("clothcast-patterns-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_clothcast")).args(args).output().expect("binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+fn data(rel: &str) -> String {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel).to_string_lossy().into_owned()
+}
+
+/// Every file present and consistent; returns the summary.
+fn check_run(out: &Path) -> Value {
+    for f in [
+        "summary.json",
+        "deformed.ply",
+        "cross_field.ply",
+        "segmentation.ply",
+        "seams.obj",
+        "patterns/pattern.svg",
+        "patterns/pattern.dxf",
+        "patterns/pattern.pdf",
+        "patterns/pattern_a4.pdf",
+        "patterns/flattened.obj",
+    ] {
+        let p = out.join(f);
+        assert!(p.is_file() && std::fs::metadata(&p).unwrap().len() > 0, "{f} missing");
+    }
+    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let fl = &s["flattening"];
+    for k in [
+        "flipped_triangles",
+        "area_ratio_min",
+        "area_ratio_max",
+        "qc_mean",
+        "qc_max",
+        "seam_length_mismatch_max_rel",
+        "fiber_alignment_median_deg",
+        "orientation",
+        "seconds",
+    ] {
+        assert!(!fl[k].is_null(), "flattening.{k} missing");
+    }
+    let pt = &s["patterns"];
+    for k in ["pieces", "seams", "notches", "fabric_width_mm", "fabric_length_mm", "utilisation", "files", "seconds"] {
+        assert!(!pt[k].is_null(), "patterns.{k} missing");
+    }
+    assert_eq!(fl["flipped_triangles"], 0);
+    assert_eq!(fl["orientation"], "field");
+    assert!(fl["qc_mean"].as_f64().unwrap() <= 1.05);
+    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() <= 0.005);
+    let pieces = pt["pieces"].as_u64().unwrap() as usize;
+    assert_eq!(pieces as u64, s["segmentation"]["patches"].as_u64().unwrap());
+    assert_eq!(pt["files"].as_array().unwrap().len(), 5);
+    // The pieces' areas add up to the target's.
+    let target = s["input"]["area_m2"].as_f64().unwrap();
+    let pieces_area = pt["pieces_area_mm2"].as_f64().unwrap() * 1e-6;
+    assert!((pieces_area / target - 1.0).abs() < 0.01, "pieces {pieces_area} m² vs target {target} m²");
+    let util = pt["utilisation"].as_f64().unwrap();
+    assert!(util > 0.2 && util <= 1.0);
+
+    // SVG: one cut path per piece.
+    let svg = std::fs::read_to_string(out.join("patterns/pattern.svg")).unwrap();
+    let cut = svg.split("<g id=\"cut\"").nth(1).unwrap().split("</g>").next().unwrap();
+    assert_eq!(cut.matches("data-piece=").count(), pieces);
+    // PDF: one page per piece.
+    let pdf = std::fs::read(out.join("patterns/pattern.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF"));
+    let pages = String::from_utf8_lossy(&pdf).matches("/Type /Page\n").count()
+        + String::from_utf8_lossy(&pdf).matches("/Type /Page ").count()
+        + String::from_utf8_lossy(&pdf).matches("/Type /Page/").count();
+    assert!(pages >= pieces, "{pages} pages for {pieces} pieces");
+    // DXF: closed polylines on CUT and SEW, one each per piece.
+    let dxf = std::fs::read_to_string(out.join("patterns/pattern.dxf")).unwrap();
+    assert!(dxf.contains("EOF"));
+    // flattened.obj: a group per patch, every face with v/vt, as many faces as the segmentation.
+    let obj = std::fs::read_to_string(out.join("patterns/flattened.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("g patch_")).count(), pieces);
+    let faces: Vec<&str> = obj.lines().filter(|l| l.starts_with("f ")).collect();
+    assert!(faces.iter().all(|f| f.split_whitespace().skip(1).all(|c| c.contains('/'))));
+    assert_eq!(faces.len() as u64, s["segmentation"]["faces"].as_u64().unwrap());
+    s
+}
+
+#[test]
+fn run_on_the_example_writes_everything() {
+    let out = tmpdir("example");
+    let o = run(&["run", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("patterns to cut"), "{}", text(&o));
+    check_run(&out);
+}
+
+#[test]
+fn run_on_fertility_writes_everything() {
+    let out = tmpdir("fertility");
+    let o = run(&["run", &data("closed/fertility.off"), "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = check_run(&out);
+    assert_eq!(s["input"]["genus"], 4);
+}
+
+#[test]
+fn flatten_command_and_determinism() {
+    let a = tmpdir("det-a");
+    let b = tmpdir("det-b");
+    for d in [&a, &b] {
+        let o = run(&["flatten", "-q", "--seed", "3", "-o", d.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    for f in ["patterns/pattern.svg", "patterns/pattern.dxf", "patterns/pattern.pdf", "patterns/flattened.obj"] {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
+}
+
+#[test]
+fn a_roll_too_narrow_is_an_input_error() {
+    let out = tmpdir("narrow");
+    let cfg = out.join("narrow.toml");
+    std::fs::write(&cfg, "[pattern]\nfabric_width_mm = 50.0\n").unwrap();
+    let o = run(&["run", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("fabric_width_mm"), "{}", text(&o));
+}

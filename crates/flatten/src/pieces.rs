@@ -1,0 +1,503 @@
+//! Flattening every patch of a segmentation and orienting it on the fabric (paper §6.3, §6.4).
+//!
+//! **Pieces.** The segmented mesh is cut open along all seams (a seam inside a patch, a dart,
+//! is opened too) and every patch becomes a disk mesh of its own, flattened by BFF in its
+//! minimal-area-distortion mode ([`crate::bff`]): boundary lengths are kept, so the two sides
+//! of a seam keep (nearly) the same length. A flattening with flipped triangles (BFF is linear;
+//! it happens around needle triangles of the input) is retried with a stronger cotangent floor,
+//! then untangled: the vertices of flipped triangles, and rings around them, are moved to the
+//! average of their neighbours (a local Tutte step; boundary vertices last and only if needed)
+//! until nothing is flipped. What remains is reported (`flipped_triangles`), never hidden.
+//!
+//! **Area.** BFF with zero boundary scale factors keeps every boundary length but shrinks the
+//! interior of a positively curved patch (a spherical cap of half-angle α keeps (1 + cos α)/2 of
+//! its area) and stretches a saddle: on our test models the pieces come out 1–4% smaller in
+//! total than the target. With `match_area` (the default) all pieces are then scaled by one
+//! common factor √(A₃D / A₂D), so the fabric has the target's area; every length — both sides
+//! of every seam alike — grows by the same factor (≈ 1–2%), so the sides still match. The
+//! factor and the area ratio before it are reported (`area_scale`, `area_ratio_bff`).
+//!
+//! **Orientation.** Warp runs along +x (u) of each piece. Two rules ([`Orientation`]):
+//! - `Field` (the paper's future work, done here): map the cross field into the piece's plane
+//!   (each face's direction through the face's own 3D → 2D map) and choose the rotation that
+//!   best aligns warp/weft with it: maximise `Σ w_f cos 4(θ_f + φ)`, whose maximiser has the
+//!   closed form `φ = −arg(Σ w_f e^{4iθ_f}) / 4`, with `w_f` = area × (anisotropy + 0.05) so that
+//!   strongly anisotropic faces, where the fibre direction matters, count most.
+//! - `LongestSide` (the paper's heuristics): the sides between consecutive corners; when the
+//!   longest is clearly the longest (≥ 1.15 × the next), its chord is turned onto the nearest
+//!   fibre axis; otherwise the angles of all sides to their nearest axis are minimised (the same
+//!   4-fold closed form over the side chords, weighted by length).
+//!
+//! **Fibre alignment** of a piece: the area-weighted median over its faces of the angle between
+//! the field's direction there and the nearest fibre (warp or weft).
+//!
+//! Complexity: one sparse factorization per patch (BFF), O(F) otherwise.
+
+use crate::bff::{BffOptions, FlatteningStats, bff_flatten, distortion};
+use crate::error::FlattenError;
+use clothcast_layout::Segmentation;
+use clothcast_layout::cutgraph::cut_open;
+use clothcast_mesh::submesh::extract_submesh;
+use clothcast_mesh::{EdgeData, FaceData, FaceId, Mesh, Vec2, Vec3, VertexData, VertexId};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::f64::consts::FRAC_PI_2;
+use std::time::Instant;
+
+/// How pieces are turned on the fabric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Orientation {
+    /// Best alignment of warp/weft with the cross field (closed form, area and anisotropy
+    /// weighted).
+    Field,
+    /// The paper's heuristics: the longest side along a fibre, or all sides as close to a fibre
+    /// as possible.
+    LongestSide,
+}
+
+/// Options of the flattening stage.
+#[derive(Clone, Debug)]
+pub struct FlattenOptions {
+    /// Orientation rule.
+    pub orientation: Orientation,
+    /// Scale all pieces by one common factor so that their total area equals the target's (see
+    /// the module documentation).
+    pub match_area: bool,
+    /// BFF options.
+    pub bff: BffOptions,
+}
+
+impl Default for FlattenOptions {
+    fn default() -> Self {
+        Self { orientation: Orientation::Field, match_area: true, bff: BffOptions::default() }
+    }
+}
+
+/// One flattened, oriented patch.
+#[derive(Clone, Debug)]
+pub struct FlatPatch {
+    /// Patch id in the segmentation.
+    pub patch: u32,
+    /// The patch as a disk mesh (metres), cut open along every seam.
+    pub mesh: Mesh,
+    /// Segmented-mesh vertex of every piece vertex.
+    pub seg_vertex: VertexData<VertexId>,
+    /// Segmented-mesh face of every piece face.
+    pub seg_face: FaceData<FaceId>,
+    /// Oriented 2D positions (metres; warp along +x), centred on the origin.
+    pub uv: VertexData<Vec2>,
+    /// Rotation applied after BFF (radians, counter-clockwise).
+    pub rotation: f64,
+    /// Boundary loop (piece vertices, counter-clockwise in `uv`).
+    pub outline: Vec<VertexId>,
+    /// Distortion of the flattening.
+    pub stats: FlatteningStats,
+    /// Area-weighted median angle between the field and the nearest fibre (degrees).
+    pub fiber_deviation_median_deg: f64,
+}
+
+/// One side of a seam on a piece: a run of its outline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeamRun {
+    /// Seam id (index into `Segmentation::seams`).
+    pub seam: usize,
+    /// Outline index where the run starts (walking counter-clockwise).
+    pub start: usize,
+    /// Outline index where it ends (inclusive).
+    pub end: usize,
+    /// Whether walking counter-clockwise from start to end follows the seam's own direction.
+    pub forward: bool,
+    /// 2D length of the run (metres).
+    pub length: f64,
+}
+
+/// The `flattening` section of `summary.json`.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FlattenReport {
+    /// Flipped 2D triangles over all pieces (after the retry).
+    pub flipped_triangles: usize,
+    /// Smallest per-face 2D/3D area ratio.
+    pub area_ratio_min: f64,
+    /// Largest per-face 2D/3D area ratio.
+    pub area_ratio_max: f64,
+    /// Area-weighted mean quasi-conformal ratio σ1/σ2 over all pieces.
+    pub qc_mean: f64,
+    /// Largest quasi-conformal ratio.
+    pub qc_max: f64,
+    /// Largest relative length difference between the two sides of a seam.
+    pub seam_length_mismatch_max_rel: f64,
+    /// Area-weighted median angle between the field and the nearest fibre, all pieces.
+    pub fiber_alignment_median_deg: f64,
+    /// The same with the other orientation rule, for comparison.
+    pub fiber_alignment_other_rule_deg: f64,
+    /// Orientation rule used.
+    pub orientation: Option<Orientation>,
+    /// Per piece: fibre alignment median (degrees).
+    pub fiber_alignment_per_piece_deg: Vec<f64>,
+    /// Pieces re-flattened because the first flattening had flipped triangles.
+    pub retried: usize,
+    /// Vertices moved by the untangling of flipped triangles.
+    pub repaired_vertices: usize,
+    /// Total 2D / 3D area straight out of BFF (before the common scale).
+    pub area_ratio_bff: f64,
+    /// The common scale applied to all pieces (1 when `match_area` is off).
+    pub area_scale: f64,
+    /// Seconds.
+    pub seconds: f64,
+}
+
+/// Everything the stage produces.
+#[derive(Clone, Debug)]
+pub struct FlatPieces {
+    /// One per patch, in patch order.
+    pub patches: Vec<FlatPatch>,
+    /// Seam sides on every piece (same order as `patches`).
+    pub runs: Vec<Vec<SeamRun>>,
+    /// Figures.
+    pub report: FlattenReport,
+}
+
+/// Flatten and orient every patch. `anisotropy[f]` (segmented-mesh faces, in [0, 1]) weights
+/// the field orientation.
+pub fn flatten_segmentation(
+    seg: &Segmentation,
+    anisotropy: &FaceData<f64>,
+    opts: &FlattenOptions,
+) -> Result<FlatPieces, FlattenError> {
+    let start = Instant::now();
+    let m = &seg.mesh;
+    // Cut along every seam: the cut mesh's faces are the segmented mesh's faces, in order.
+    let mut seam = EdgeData::filled(m.n_edges(), false);
+    for s in &seg.seams {
+        for w in s.vertices.windows(2) {
+            if let Some(e) = clothcast_layout::patches::edge_between(m, w[0], w[1]) {
+                seam[e] = true;
+            }
+        }
+    }
+    let (cut, original) = cut_open(m, &seam);
+    let n = seg.patches.len();
+    let mut faces: Vec<Vec<FaceId>> = vec![Vec::new(); n];
+    for (f, &p) in seg.patch_of_face.enumerate() {
+        faces[p as usize].push(f);
+    }
+    // Seam edge (segmented vertices, in seam order) → (seam id, position along the seam).
+    let mut seam_edge: HashMap<(VertexId, VertexId), usize> = HashMap::new();
+    for (i, s) in seg.seams.iter().enumerate() {
+        for w in s.vertices.windows(2) {
+            seam_edge.insert((w[0], w[1]), i);
+        }
+    }
+    let mut report = FlattenReport { orientation: Some(opts.orientation), ..Default::default() };
+    let mut patches = Vec::with_capacity(n);
+    let mut runs = Vec::with_capacity(n);
+    // (fibre angle, area) of every face with the chosen rule and with the other one.
+    let mut all_main: Vec<(f64, f64)> = Vec::new();
+    let mut all_other: Vec<(f64, f64)> = Vec::new();
+    for (p, fs) in faces.iter().enumerate() {
+        let sub =
+            extract_submesh(&cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
+        let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| original[v.idx()]);
+        let seg_face = sub.face_to_parent.clone();
+        let pm = sub.mesh;
+        let mut flat =
+            bff_flatten(&pm, &opts.bff).map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+        if flat.stats.flipped_triangles > 0 {
+            report.retried += 1;
+            let stronger = BffOptions { cotan_area_floor: opts.bff.cotan_area_floor.max(1e-6), ..opts.bff.clone() };
+            if let Ok(f2) = bff_flatten(&pm, &stronger)
+                && f2.stats.flipped_triangles < flat.stats.flipped_triangles
+            {
+                flat = f2;
+            }
+            if flat.stats.flipped_triangles > 0 {
+                report.repaired_vertices += untangle(&pm, &mut flat.uv);
+                flat.stats = distortion(&pm, &flat.uv);
+            }
+            if flat.stats.flipped_triangles > 0 {
+                tracing::warn!(
+                    patch = p,
+                    flipped = flat.stats.flipped_triangles,
+                    "flattened patch has flipped triangles"
+                );
+            }
+        }
+        // Field directions mapped into the piece's plane, and their weights.
+        let mapped: Vec<(f64, f64, f64)> = pm
+            .face_ids()
+            .map(|f| {
+                let sf = seg_face[f];
+                let theta = map_direction(&pm, &flat.uv, f, &seg.field_directions[sf]);
+                let area = pm.face_area(f);
+                (theta, area, area * (anisotropy[sf].clamp(0.0, 1.0) + 0.05))
+            })
+            .collect();
+        let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
+        let phi_field = field_rotation(&mapped);
+        let phi_sides = side_rotation(&flat.uv, &outline, &seg_vertex, &seg.patches[p].corners);
+        let (phi, phi_other) = match opts.orientation {
+            Orientation::Field => (phi_field, phi_sides),
+            Orientation::LongestSide => (phi_sides, phi_field),
+        };
+        let centroid = {
+            let (mut c, mut a) = (Vec2::zeros(), 0.0);
+            for f in pm.face_ids() {
+                let [x, y, z] = pm.face_vertices(f).map(|v| flat.uv[v]);
+                let area = 0.5 * ((y - x).perp(&(z - x))).abs();
+                c += (x + y + z) / 3.0 * area;
+                a += area;
+            }
+            if a > 0.0 { c / a } else { Vec2::zeros() }
+        };
+        let rot = nalgebra::Rotation2::new(phi);
+        let uv: VertexData<Vec2> = flat.uv.map(|q| rot * (q - centroid));
+        let deviation = |rotation: f64| -> f64 {
+            let samples: Vec<(f64, f64)> = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + rotation), a)).collect();
+            weighted_median(samples)
+        };
+        let dev = deviation(phi);
+        all_main.extend(mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi), a)));
+        all_other.extend(mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi_other), a)));
+        let stats = distortion(&pm, &uv);
+        runs.push(seam_runs(&uv, &outline, &seg_vertex, &seam_edge));
+        report.fiber_alignment_per_piece_deg.push(dev);
+        patches.push(FlatPatch {
+            patch: p as u32,
+            mesh: pm,
+            seg_vertex,
+            seg_face,
+            uv,
+            rotation: phi,
+            outline,
+            stats,
+            fiber_deviation_median_deg: dev,
+        });
+    }
+    // Totals.
+    let total_area: f64 = patches.iter().map(|q| q.mesh.total_area()).sum();
+    let flat_area: f64 = patches.iter().map(|q| q.stats.area_ratio * q.mesh.total_area()).sum();
+    report.area_ratio_bff = flat_area / total_area.max(1e-300);
+    report.area_scale = 1.0;
+    if opts.match_area && flat_area > 0.0 {
+        let k = (total_area / flat_area).sqrt();
+        report.area_scale = k;
+        for q in &mut patches {
+            q.uv.iter_mut().for_each(|x| *x *= k);
+            q.stats = distortion(&q.mesh, &q.uv);
+        }
+        for r in runs.iter_mut().flatten() {
+            r.length *= k;
+        }
+    }
+    report.flipped_triangles = patches.iter().map(|q| q.stats.flipped_triangles).sum();
+    report.area_ratio_min = patches.iter().map(|q| q.stats.area_ratio_min).fold(f64::INFINITY, f64::min);
+    report.area_ratio_max = patches.iter().map(|q| q.stats.area_ratio_max).fold(f64::NEG_INFINITY, f64::max);
+    report.qc_mean =
+        patches.iter().map(|q| q.stats.qc_mean * q.mesh.total_area()).sum::<f64>() / total_area.max(1e-300);
+    report.qc_max = patches.iter().map(|q| q.stats.qc_max).fold(0.0, f64::max);
+    report.fiber_alignment_median_deg = weighted_median(all_main);
+    report.fiber_alignment_other_rule_deg = weighted_median(all_other);
+    report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(FlatPieces { patches, runs, report })
+}
+
+/// Angle (radians) of a 3D direction of face `f` mapped into 2D by the face's affine map.
+fn map_direction(mesh: &Mesh, uv: &VertexData<Vec2>, f: FaceId, d: &Vec3) -> f64 {
+    let [a, b, c] = mesh.face_vertices(f);
+    let (p0, p1, p2) = (mesh.position(a), mesh.position(b), mesh.position(c));
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    // d = α e1 + β e2 in the face plane (least squares).
+    let (g11, g12, g22) = (e1.dot(&e1), e1.dot(&e2), e2.dot(&e2));
+    let det = g11 * g22 - g12 * g12;
+    if det.abs() <= 1e-300 {
+        return 0.0;
+    }
+    let (r1, r2) = (d.dot(&e1), d.dot(&e2));
+    let alpha = (g22 * r1 - g12 * r2) / det;
+    let beta = (g11 * r2 - g12 * r1) / det;
+    let q = (uv[b] - uv[a]) * alpha + (uv[c] - uv[a]) * beta;
+    q.y.atan2(q.x)
+}
+
+/// Angle (degrees, in [0, 45]) between a direction and the nearest fibre axis.
+fn fiber_angle(theta: f64) -> f64 {
+    let r = theta.rem_euclid(FRAC_PI_2);
+    r.min(FRAC_PI_2 - r).to_degrees()
+}
+
+/// The rotation maximising `Σ w cos 4(θ + φ)`: φ = −arg(Σ w e^{4iθ}) / 4.
+fn four_fold_rotation(samples: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let (mut re, mut im) = (0.0, 0.0);
+    for (theta, w) in samples {
+        re += w * (4.0 * theta).cos();
+        im += w * (4.0 * theta).sin();
+    }
+    if re == 0.0 && im == 0.0 { 0.0 } else { -im.atan2(re) / 4.0 }
+}
+
+fn field_rotation(mapped: &[(f64, f64, f64)]) -> f64 {
+    four_fold_rotation(mapped.iter().map(|&(t, _, w)| (t, w)))
+}
+
+/// The paper's side heuristics (see the module documentation).
+fn side_rotation(
+    uv: &VertexData<Vec2>,
+    outline: &[VertexId],
+    seg_vertex: &VertexData<VertexId>,
+    corners: &[VertexId],
+) -> f64 {
+    let n = outline.len();
+    let corner_at: Vec<usize> = (0..n).filter(|&i| corners.contains(&seg_vertex[outline[i]])).collect();
+    // Sides: (chord angle, arc length).
+    let mut sides: Vec<(f64, f64)> = Vec::new();
+    if corner_at.len() >= 2 {
+        for k in 0..corner_at.len() {
+            let (a, b) = (corner_at[k], corner_at[(k + 1) % corner_at.len()]);
+            let mut len = 0.0;
+            let mut i = a;
+            while i != b {
+                let j = (i + 1) % n;
+                len += (uv[outline[j]] - uv[outline[i]]).norm();
+                i = j;
+            }
+            let d = uv[outline[b]] - uv[outline[a]];
+            sides.push((d.y.atan2(d.x), len));
+        }
+    } else {
+        for i in 0..n {
+            let d = uv[outline[(i + 1) % n]] - uv[outline[i]];
+            sides.push((d.y.atan2(d.x), d.norm()));
+        }
+    }
+    let mut by_len = sides.clone();
+    by_len.sort_by(|a, b| b.1.total_cmp(&a.1));
+    if by_len.len() >= 2 && by_len[0].1 >= 1.15 * by_len[1].1 {
+        // The longest side onto the nearest fibre axis.
+        let t = by_len[0].0;
+        let r = t.rem_euclid(FRAC_PI_2);
+        if r < FRAC_PI_2 - r { -r } else { FRAC_PI_2 - r }
+    } else {
+        four_fold_rotation(sides.into_iter())
+    }
+}
+
+/// Weighted median of (value, weight) samples.
+fn weighted_median(mut samples: Vec<(f64, f64)>) -> f64 {
+    samples.retain(|s| s.0.is_finite() && s.1 > 0.0);
+    if samples.is_empty() {
+        return 0.0;
+    }
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = samples.iter().map(|s| s.1).sum();
+    let mut acc = 0.0;
+    for (v, w) in &samples {
+        acc += w;
+        if acc >= 0.5 * total {
+            return *v;
+        }
+    }
+    samples.last().map(|s| s.0).unwrap_or(0.0)
+}
+
+/// The seam sides along a piece's outline: maximal runs of outline edges belonging to the same
+/// seam in the same direction.
+fn seam_runs(
+    uv: &VertexData<Vec2>,
+    outline: &[VertexId],
+    seg_vertex: &VertexData<VertexId>,
+    seam_edge: &HashMap<(VertexId, VertexId), usize>,
+) -> Vec<SeamRun> {
+    let n = outline.len();
+    // Per outline edge i (outline[i] → outline[i+1]): (seam, forward).
+    let key: Vec<Option<(usize, bool)>> = (0..n)
+        .map(|i| {
+            let (a, b) = (seg_vertex[outline[i]], seg_vertex[outline[(i + 1) % n]]);
+            seam_edge.get(&(a, b)).map(|&s| (s, true)).or_else(|| seam_edge.get(&(b, a)).map(|&s| (s, false)))
+        })
+        .collect();
+    // Start at an edge whose key differs from its predecessor's, so no run wraps.
+    let Some(first) = (0..n).find(|&i| key[i] != key[(i + n - 1) % n]) else {
+        // One run around the whole outline (or none).
+        return match key.first().copied().flatten() {
+            Some((seam, forward)) => {
+                let length = (0..n).map(|i| (uv[outline[(i + 1) % n]] - uv[outline[i]]).norm()).sum();
+                vec![SeamRun { seam, start: 0, end: 0, forward, length }]
+            }
+            None => Vec::new(),
+        };
+    };
+    let mut out = Vec::new();
+    let mut i = first;
+    let mut visited = 0;
+    while visited < n {
+        let k = key[i];
+        let start = i;
+        let mut length = 0.0;
+        while visited < n && key[i] == k {
+            length += (uv[outline[(i + 1) % n]] - uv[outline[i]]).norm();
+            i = (i + 1) % n;
+            visited += 1;
+        }
+        if let Some((seam, forward)) = k {
+            out.push(SeamRun { seam, start, end: i, forward, length });
+        }
+    }
+    out
+}
+
+/// Largest relative length difference between the two sides of every seam.
+fn seam_mismatch(runs: &[Vec<SeamRun>], n_seams: usize) -> f64 {
+    let mut sides: Vec<Vec<f64>> = vec![Vec::new(); n_seams];
+    for r in runs.iter().flatten() {
+        sides[r.seam].push(r.length);
+    }
+    sides
+        .iter()
+        .filter(|s| s.len() == 2)
+        .map(|s| (s[0] - s[1]).abs() / (0.5 * (s[0] + s[1])).max(1e-300))
+        .fold(0.0, f64::max)
+}
+
+/// Untangle flipped triangles of a flattening by local Tutte relaxation: the interior vertices of
+/// flipped faces (then their 1-ring, 2-ring, …) move to the mean of their neighbours, a few
+/// sweeps per round; boundary vertices join only when interior moves are not enough. Returns the
+/// number of vertices moved.
+fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
+    let signed = |uv: &VertexData<Vec2>, f: FaceId| {
+        let [a, b, c] = mesh.face_vertices(f).map(|v| uv[v]);
+        (b - a).perp(&(c - a))
+    };
+    let flipped =
+        |uv: &VertexData<Vec2>| -> Vec<FaceId> { mesh.face_ids().filter(|&f| signed(uv, f) <= 0.0).collect() };
+    let neighbours: Vec<Vec<VertexId>> = mesh.vertices().map(|v| mesh.vertex_neighbors(v)).collect();
+    let mut moved = std::collections::BTreeSet::new();
+    for round in 0..12 {
+        let bad = flipped(uv);
+        if bad.is_empty() {
+            break;
+        }
+        let with_boundary = round >= 6;
+        // The vertices of flipped faces grown by a few rings.
+        let mut set: std::collections::BTreeSet<VertexId> = bad.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
+        for _ in 0..(round % 6) / 2 + 1 {
+            let grown: Vec<VertexId> = set.iter().flat_map(|&v| neighbours[v.idx()].iter().copied()).collect();
+            set.extend(grown);
+        }
+        set.retain(|&v| with_boundary || !mesh.is_boundary_vertex(v));
+        for _ in 0..20 {
+            for &v in &set {
+                let ns = &neighbours[v.idx()];
+                if ns.is_empty() {
+                    continue;
+                }
+                let mean = ns.iter().fold(Vec2::zeros(), |acc, &w| acc + uv[w]) / ns.len() as f64;
+                // Boundary vertices go only half way, to stay near their boundary.
+                uv[v] = if mesh.is_boundary_vertex(v) { 0.5 * (uv[v] + mean) } else { mean };
+                moved.insert(v);
+            }
+        }
+    }
+    moved.len()
+}

@@ -1,0 +1,122 @@
+//! Flattening a whole segmentation (issue 6): no flips on any patch of the test meshes, the two
+//! sides of every seam equal in length, orientation rules, area matching.
+
+use clothcast_field::cross::connection;
+use clothcast_field::synthesis::FieldSource;
+use clothcast_field::{CrossField, FieldOptions, compute_field};
+use clothcast_flatten::{FlattenOptions, Orientation, flatten_segmentation};
+use clothcast_layout::{LayoutOptions, Segmentation, segment};
+use clothcast_mesh::io::read_mesh_file;
+use clothcast_mesh::{FaceData, Mesh, Vec3, shapes};
+use std::path::PathBuf;
+
+fn data(rel: &str) -> Mesh {
+    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel);
+    Mesh::try_from_soup(&read_mesh_file(&p).unwrap()).unwrap()
+}
+
+fn segmented(m: &Mesh) -> Segmentation {
+    let opts = FieldOptions { source: FieldSource::Curvature, ..Default::default() };
+    let r = compute_field(m, None, &opts).unwrap();
+    segment(m, &r.field, &r.singularities, &LayoutOptions::default()).unwrap()
+}
+
+#[test]
+fn every_patch_flattens_without_flips_and_seams_match() {
+    for (name, m) in [
+        ("example", shapes::rounded_tetrahedron(0.5)),
+        ("bunny", data("closed/bunny.obj")),
+        ("fertility", data("closed/fertility.off")),
+        ("camelhead", data("open/camelhead.ply")),
+    ] {
+        let seg = segmented(&m);
+        let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
+        let flat = flatten_segmentation(&seg, &ones, &FlattenOptions::default()).unwrap();
+        let r = &flat.report;
+        eprintln!(
+            "{name}: {} pieces, flips {}, bff area {:.4} scale {:.4}, qc {:.4}/{:.3}, mismatch {:.3}%, fibre {:.1}° (other {:.1}°)",
+            flat.patches.len(),
+            r.flipped_triangles,
+            r.area_ratio_bff,
+            r.area_scale,
+            r.qc_mean,
+            r.qc_max,
+            100.0 * r.seam_length_mismatch_max_rel,
+            r.fiber_alignment_median_deg,
+            r.fiber_alignment_other_rule_deg
+        );
+        assert_eq!(flat.patches.len(), seg.patches.len());
+        assert_eq!(r.flipped_triangles, 0, "{name}");
+        assert!(flat.patches.iter().all(|p| p.stats.flipped_triangles == 0));
+        assert!(
+            r.seam_length_mismatch_max_rel <= 0.005,
+            "{name}: seam sides differ by {}",
+            r.seam_length_mismatch_max_rel
+        );
+        assert!(r.qc_mean < 1.05, "{name}: qc {}", r.qc_mean);
+        // Every seam has exactly two sides among the pieces.
+        let mut sides = vec![0; seg.seams.len()];
+        for run in flat.runs.iter().flatten() {
+            sides[run.seam] += 1;
+        }
+        assert!(sides.iter().all(|&k| k == 2), "{name}: seam sides {sides:?}");
+        // Area matching: the pieces' total 2D area is the target's.
+        let a2: f64 = flat.patches.iter().map(|p| p.stats.area_ratio * p.mesh.total_area()).sum();
+        assert!((a2 / m.total_area() - 1.0).abs() < 1e-9, "{name}: area {a2} vs {}", m.total_area());
+        // Every face of the target is on exactly one piece.
+        let faces: usize = flat.patches.iter().map(|p| p.mesh.n_faces()).sum();
+        assert_eq!(faces, seg.mesh.n_faces());
+    }
+}
+
+/// Without area matching the seams keep their 3D lengths exactly (up to BFF's discretisation).
+#[test]
+fn without_area_matching_boundary_lengths_are_kept() {
+    let m = shapes::rounded_tetrahedron(0.5);
+    let seg = segmented(&m);
+    let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
+    let flat = flatten_segmentation(&seg, &ones, &FlattenOptions { match_area: false, ..Default::default() }).unwrap();
+    assert_eq!(flat.report.area_scale, 1.0);
+    assert!(flat.report.area_ratio_bff < 1.0, "a closed convex target flattens smaller");
+    for p in &flat.patches {
+        assert!(
+            p.stats.boundary_length_error_max_rel < 2e-3,
+            "patch {}: {}",
+            p.patch,
+            p.stats.boundary_length_error_max_rel
+        );
+    }
+}
+
+/// On a flat patch with a constant field at 30°, the field rule turns the piece so that the
+/// fibres follow the field exactly; the side rule aligns the longest side of a long rectangle.
+#[test]
+fn orientation_rules() {
+    let m = shapes::grid(40, 10, 4.0, 1.0);
+    let rho = connection(&m);
+    let world = Vec3::new(30f64.to_radians().cos(), 30f64.to_radians().sin(), 0.0);
+    let theta: FaceData<f64> = m.face_ids().map(|f| m.face_frame(f).angle_of(&world)).collect();
+    let field = CrossField::from_angles(&m, &rho, theta);
+    let seg = segment(&m, &field, &[], &LayoutOptions::default()).unwrap();
+    assert_eq!(seg.patches.len(), 1);
+    let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
+    let by_field = flatten_segmentation(&seg, &ones, &FlattenOptions::default()).unwrap();
+    assert!(by_field.report.fiber_alignment_median_deg < 1e-6, "{}", by_field.report.fiber_alignment_median_deg);
+    let by_side = flatten_segmentation(
+        &seg,
+        &ones,
+        &FlattenOptions { orientation: Orientation::LongestSide, ..Default::default() },
+    )
+    .unwrap();
+    // The 4 × 1 rectangle's long side lies along a fibre, so the field (at 30°) is 30° off.
+    let p = &by_side.patches[0];
+    let (mut lo, mut hi) =
+        (clothcast_mesh::Vec2::repeat(f64::INFINITY), clothcast_mesh::Vec2::repeat(f64::NEG_INFINITY));
+    for v in p.mesh.vertices() {
+        lo = lo.inf(&p.uv[v]);
+        hi = hi.sup(&p.uv[v]);
+    }
+    let ext = hi - lo;
+    assert!((ext.x.max(ext.y) - 4.0).abs() < 1e-6 && (ext.x.min(ext.y) - 1.0).abs() < 1e-6, "extent {ext}");
+    assert!((by_side.report.fiber_alignment_median_deg - 30.0).abs() < 1e-6);
+}
