@@ -66,6 +66,17 @@ fn check_run(out: &Path) -> Value {
     assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() <= 0.005);
     let pieces = pt["pieces"].as_u64().unwrap() as usize;
     assert_eq!(pieces as u64, s["segmentation"]["patches"].as_u64().unwrap());
+    let per_piece = fl["per_piece"].as_array().unwrap();
+    assert_eq!(per_piece.len(), pieces);
+    for q in per_piece {
+        assert_eq!(q["flipped_triangles"], 0);
+        let qc = q["qc_mean"].as_f64().unwrap();
+        assert!((1.0..=q["qc_max"].as_f64().unwrap()).contains(&qc), "{q}");
+        // A strongly curved piece keeps its boundary and shrinks inside (fertility has one at
+        // 0.72, a cap of ~64°); the common scale then brings the total back.
+        let r = q["area_ratio"].as_f64().unwrap();
+        assert!(r > 0.5 && r < 1.5, "{q}");
+    }
     assert_eq!(pt["files"].as_array().unwrap().len(), 5);
     // The pieces' areas add up to the target's.
     let target = s["input"]["area_m2"].as_f64().unwrap();

@@ -9,10 +9,13 @@
 //!   mode — zero boundary scale factors, so every boundary edge keeps its 3D length (up to the
 //!   small correction that closes the boundary curve, reported in [`FlatteningStats`]) and the
 //!   two sides of a seam stay the same length; [`distortion`] measures any 2D layout.
+//! - [`pieces`]: the whole stage on a [`clothcast_layout::Segmentation`] — cut every patch
+//!   out, flatten it by BFF (flips retried and untangled), scale all pieces by one common factor
+//!   to the target's area, orient each on the fabric's warp/weft ([`Orientation::Field`], the
+//!   closed-form best alignment with the cross field, or the paper's [`Orientation::LongestSide`]
+//!   heuristics), and list every seam's side on every piece ([`SeamRun`]) for the sewing plan;
+//!   [`FlattenReport`] (with a [`PieceReport`] per piece) is the summary's `flattening`.
 //! - [`error`]: the error type, [`FlattenError`].
-//!
-//! Orientation of each piece on the fabric's warp/weft (paper §6.4) will come later in this
-//! crate.
 //!
 //! ```
 //! use clothcast_flatten::{bff_flatten, BffOptions};
@@ -28,4 +31,6 @@ pub mod pieces;
 
 pub use bff::{BffOptions, Flattening, FlatteningStats, bff_flatten, distortion};
 pub use error::FlattenError;
-pub use pieces::{FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, SeamRun, flatten_segmentation};
+pub use pieces::{
+    FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, PieceReport, SeamRun, flatten_segmentation,
+};

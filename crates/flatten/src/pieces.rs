@@ -135,6 +135,8 @@ pub struct FlattenReport {
     pub orientation: Option<Orientation>,
     /// Per piece: fibre alignment median (degrees).
     pub fiber_alignment_per_piece_deg: Vec<f64>,
+    /// Per piece: area ratio, quasi-conformal ratio, flips and fibre alignment (patch order).
+    pub per_piece: Vec<PieceReport>,
     /// Pieces re-flattened because the first flattening had flipped triangles.
     pub retried: usize,
     /// Vertices moved by the untangling of flipped triangles.
@@ -145,6 +147,27 @@ pub struct FlattenReport {
     pub area_scale: f64,
     /// Seconds.
     pub seconds: f64,
+}
+
+/// Flattening figures of one piece (an entry of `flattening.per_piece` in `summary.json`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PieceReport {
+    /// Patch id.
+    pub patch: u32,
+    /// Total 2D / 3D area of the piece (after the common scale).
+    pub area_ratio: f64,
+    /// Smallest per-face 2D/3D area ratio.
+    pub area_ratio_min: f64,
+    /// Largest per-face 2D/3D area ratio.
+    pub area_ratio_max: f64,
+    /// Area-weighted mean quasi-conformal ratio σ1/σ2.
+    pub qc_mean: f64,
+    /// Largest quasi-conformal ratio.
+    pub qc_max: f64,
+    /// Flipped triangles left.
+    pub flipped_triangles: usize,
+    /// Area-weighted median angle between the field and the nearest fibre (degrees).
+    pub fiber_alignment_median_deg: f64,
 }
 
 /// Everything the stage produces.
@@ -297,6 +320,19 @@ pub fn flatten_segmentation(
         patches.iter().map(|q| q.stats.qc_mean * q.mesh.total_area()).sum::<f64>() / total_area.max(1e-300);
     report.qc_max = patches.iter().map(|q| q.stats.qc_max).fold(0.0, f64::max);
     report.fiber_alignment_median_deg = weighted_median(all_main);
+    report.per_piece = patches
+        .iter()
+        .map(|q| PieceReport {
+            patch: q.patch,
+            area_ratio: q.stats.area_ratio,
+            area_ratio_min: q.stats.area_ratio_min,
+            area_ratio_max: q.stats.area_ratio_max,
+            qc_mean: q.stats.qc_mean,
+            qc_max: q.stats.qc_max,
+            flipped_triangles: q.stats.flipped_triangles,
+            fiber_alignment_median_deg: q.fiber_deviation_median_deg,
+        })
+        .collect();
     report.fiber_alignment_other_rule_deg = weighted_median(all_other);
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
     report.seconds = start.elapsed().as_secs_f64();

@@ -7,7 +7,7 @@ use crate::input::Input;
 use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
-use clothcast_flatten::{FlatPieces, FlattenOptions, flatten_segmentation};
+use clothcast_flatten::{FlatPieces, FlattenOptions, Orientation, flatten_segmentation};
 use clothcast_layout::Segmentation;
 use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
 use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
@@ -77,7 +77,7 @@ pub fn run(
     drop(stage);
     let r = &flat.report;
     progress.say(format!(
-        "flattening: {} pieces, {} flipped triangles, area {:.1}% of the target before scaling by {:.4}, area ratio {:.3}–{:.3}, qc mean {:.4} max {:.3}, seam length mismatch {:.2}%, fibre alignment median {:.1}° ({:?}; other rule {:.1}°), {:.2} s",
+        "flattening: {} pieces, {} flipped triangles, area {:.1}% of the target before scaling by {:.4}, area ratio {:.3}–{:.3}, qc mean {:.4} max {:.3}, seam length mismatch {:.2}%, fibre alignment median {:.1}° (orientation \"{}\"; the other rule: {:.1}°), {:.2} s",
         flat.patches.len(),
         r.flipped_triangles,
         100.0 * r.area_ratio_bff,
@@ -88,7 +88,10 @@ pub fn run(
         r.qc_max,
         100.0 * r.seam_length_mismatch_max_rel,
         r.fiber_alignment_median_deg,
-        cfg.pattern.orientation,
+        match cfg.pattern.orientation {
+            Orientation::Field => "field",
+            Orientation::LongestSide => "longest-side",
+        },
         r.fiber_alignment_other_rule_deg,
         r.seconds
     ));
