@@ -109,6 +109,8 @@ pub struct LayoutSection {
     pub smooth_seams: bool,
     /// Pins along the traced seams every this many mean edge lengths (0: none).
     pub pin_spacing: f64,
+    /// Move field-following seams onto streamlines of the field before straightening.
+    pub follow_streamlines: bool,
     /// Merge adjacent patches when the union is a developable quad.
     pub merge: bool,
     /// Split patches whose developability score exceeds this (`inf`: never).
@@ -130,6 +132,7 @@ impl Default for LayoutSection {
             capture_radius: d.capture_radius,
             smooth_seams: d.smooth_seams,
             pin_spacing: d.pin_spacing,
+            follow_streamlines: d.follow_streamlines,
             merge: d.merge,
             max_developability: d.max_developability,
             min_patch_fraction: d.min_patch_fraction,

@@ -91,6 +91,9 @@ fn main() {
     if env("NOMERGE").is_some() {
         opts.merge = false;
     }
+    if env("NORR").is_some() {
+        opts.follow_streamlines = false;
+    }
     if env("NOSMOOTH").is_some() {
         opts.smooth_seams = false;
     }
@@ -139,13 +142,82 @@ fn main() {
         }
         println!("candidate angle histogram (quarter-turn bins of 0.25): {h:?}");
     }
+    if env("DEVHIST").is_some() {
+        // Length per 5° bin of the final seams' deviation from the field.
+        let m = &seg.mesh;
+        let mut h = [0.0f64; 10];
+        let mut per_seam: Vec<(f64, f64, usize)> = Vec::new();
+        for (si, sm) in seg.seams.iter().enumerate() {
+            let (mut len, mut acc) = (0.0, 0.0);
+            for w in sm.vertices.windows(2) {
+                let h0 = m.outgoing(w[0]).find(|&hh| m.head(hh) == w[1]);
+                let Some(hh) = h0 else { continue };
+                let d = m.vector(hh);
+                let e = m.edge(hh);
+                let dev = |f: clothcast_mesh::FaceId| {
+                    let n = m.face_normal(f);
+                    let t = (d - n * n.dot(&d)).normalize();
+                    let a = seg.field_directions[f];
+                    let b = n.cross(&a);
+                    a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos().to_degrees()
+                };
+                let phi = match m.edge_faces(e) {
+                    (a, Some(b)) => 0.5 * (dev(a) + dev(b)),
+                    (a, None) => dev(a),
+                };
+                h[((phi / 5.0) as usize).min(9)] += d.norm();
+                len += d.norm();
+                acc += phi * d.norm();
+            }
+            per_seam.push((acc / len.max(1e-12), len, si));
+        }
+        // Deviation by position along the seam (share of its length from the nearer end).
+        let mut pos = [(0.0f64, 0.0f64); 5];
+        for sm in &seg.seams {
+            let lens: Vec<f64> = sm.vertices.windows(2).map(|w| (m.position(w[1]) - m.position(w[0])).norm()).collect();
+            let total: f64 = lens.iter().sum();
+            let mut acc = 0.0;
+            for (i, w) in sm.vertices.windows(2).enumerate() {
+                let mid = acc + 0.5 * lens[i];
+                acc += lens[i];
+                let frac = mid.min(total - mid) / total.max(1e-12);
+                let Some(hh) = m.outgoing(w[0]).find(|&hh| m.head(hh) == w[1]) else { continue };
+                let d = m.vector(hh);
+                let f = m.face(hh);
+                let n = m.face_normal(f);
+                let t = (d - n * n.dot(&d)).normalize();
+                let a = seg.field_directions[f];
+                let b = n.cross(&a);
+                let phi = a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos().to_degrees();
+                let k = ((frac / 0.1) as usize).min(4);
+                pos[k].0 += phi * lens[i];
+                pos[k].1 += lens[i];
+            }
+        }
+        println!(
+            "mean deviation by distance from the nearer end (0-10%, 10-20%, .., 40-50%): {:?}",
+            pos.iter()
+                .map(|(a, l)| format!("{:.1}° ({:.0}%)", a / l, 100.0 * l / pos.iter().map(|x| x.1).sum::<f64>()))
+                .collect::<Vec<_>>()
+        );
+        let tot: f64 = h.iter().sum();
+        println!(
+            "deviation histogram (share of length per 5° bin): {:?}",
+            h.iter().map(|x| (100.0 * x / tot).round()).collect::<Vec<_>>()
+        );
+        per_seam.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for (d, l, si) in per_seam.iter().take(12) {
+            println!("  seam {si}: mean dev {d:.1}° length {l:.3} patches {:?}", seg.seams[*si].patches);
+        }
+    }
     let s = &seg.stats;
     let mut ch = std::collections::BTreeMap::new();
     for c in &s.corners {
         *ch.entry(c).or_insert(0) += 1;
     }
     println!(
-        "patches {} corners {:?} quad {:.2} merges {} splits {} straightened {} dev {:.1} dmax {:.2} min angle {:.1}",
+        "rerouted {} patches {} corners {:?} quad {:.2} merges {} splits {} straightened {} dev {:.1} dmax {:.2} min angle {:.1}",
+        s.rerouted,
         s.patches,
         ch,
         s.quad_fraction,

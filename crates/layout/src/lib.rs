@@ -10,7 +10,7 @@
 //! Data flow ([`segment()`]): [`vertex_field`] → [`trace`] (separatrices as shortest paths on a
 //! direction-aware graph) → [`cutgraph`] (extra cuts until every patch is a disk) →
 //! merge / [`split`] ([`developability`] with the hinge energy) → [`network`] (chains between
-//! nodes) → [`flipout`] on an [`intrinsic`] triangulation (geodesic seams) → [`remesh`] (seams
+//! nodes) → [`reroute`] (chains moved onto streamlines of the field) → [`flipout`] on an [`intrinsic`] triangulation (geodesic seams) → [`remesh`] (seams
 //! become edges) → [`patches`] (topology and corners) → report.
 //!
 //! Written by hand because no crate does it: FlipOut and the signpost intrinsic triangulation
@@ -24,6 +24,7 @@ pub mod intrinsic;
 pub mod network;
 pub mod patches;
 pub mod remesh;
+pub mod reroute;
 pub mod segment;
 pub mod split;
 pub mod surface;

@@ -21,6 +21,7 @@ pub fn options(cfg: &Config) -> LayoutOptions {
         capture_radius: l.capture_radius,
         smooth_seams: l.smooth_seams,
         pin_spacing: l.pin_spacing,
+        follow_streamlines: l.follow_streamlines,
         merge: l.merge,
         max_developability: l.max_developability,
         min_patch_fraction: l.min_patch_fraction,
