@@ -104,3 +104,21 @@ fn bad_layout_config_is_an_input_error() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("layout.max_deviation"), "{}", text(&o));
 }
+
+/// Spot (23k faces): every patch a disk with no singularity inside and none tiny (its last
+/// tiny patch can only merge by exposing a singularity, which is then joined to the seams
+/// again), and the seams, moved onto streamlines, within the 10° deviation target.
+#[test]
+fn spot_has_no_tiny_patches_and_field_aligned_seams() {
+    let out = tmpdir("spot");
+    let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/spot.ply");
+    let o = run(&["segment", mesh, "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let g = &s["segmentation"];
+    assert_eq!(g["disks"], g["patches"]);
+    assert_eq!(g["singularities_inside_patches"], 0);
+    assert_eq!(g["tiny_patches"], 0, "{g}");
+    assert!(g["rerouted"].as_u64().unwrap() > 0);
+    assert!(g["seam_field_deviation_median_deg"].as_f64().unwrap() <= 10.0, "{g}");
+}

@@ -262,7 +262,7 @@ pub fn segment(
         let merges = if opts.merge { state.merge_quads(opts.max_developability) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
-        let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area());
+        let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area(), &dirs, opts.drift_penalty, phi_max);
         (state.seam, merges, splits + concave, tiny)
     };
     stage.seam = seam;
@@ -351,7 +351,7 @@ pub fn segment(
     let (seam, late_tiny) = {
         let scores = vertex_scores(&stage.mesh);
         let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field_directions);
-        let m = state.merge_tiny(opts.min_patch_fraction * total_area);
+        let m = state.merge_tiny(opts.min_patch_fraction * total_area, &field_directions, opts.drift_penalty, phi_max);
         (state.seam, m)
     };
     stage.seam = seam;
@@ -765,6 +765,18 @@ impl<'a> State<'a> {
     /// Evaluate removing `edges` between `a` and `b`: the union's topology and score, or None if
     /// a singularity would end up inside.
     fn evaluate(&self, a: u32, b: u32, edges: &[EdgeId]) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
+        self.evaluate_with(a, b, edges, false)
+    }
+
+    /// [`Self::evaluate`], optionally accepting a removal that leaves a singularity without a
+    /// seam (the caller then joins it to the seams again).
+    fn evaluate_with(
+        &self,
+        a: u32,
+        b: u32,
+        edges: &[EdgeId],
+        allow_exposing: bool,
+    ) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
         // Singularities exposed by the removal.
         let mut removed_at: BTreeMap<VertexId, u32> = BTreeMap::new();
         for &e in edges {
@@ -773,7 +785,7 @@ impl<'a> State<'a> {
             }
         }
         for (&v, &k) in &removed_at {
-            if self.singular[v] && self.degree[v] <= k && !self.mesh.is_boundary_vertex(v) {
+            if !allow_exposing && self.singular[v] && self.degree[v] <= k && !self.mesh.is_boundary_vertex(v) {
                 return None;
             }
         }
@@ -1093,7 +1105,28 @@ impl<'a> State<'a> {
     }
 
     /// Merge patches smaller than `min_area` into their neighbours; returns the merges.
-    fn merge_tiny(&mut self, min_area: f64) -> usize {
+    /// Merge patches below `min_area` into a neighbour. A merge that would leave a singularity
+    /// inside the union is tried last, and the singularity is then joined to the seams by a
+    /// field-aligned cut (a slit into the merged patch, which stays a disk).
+    fn merge_tiny(&mut self, min_area: f64, dirs: &FaceData<Vec3>, drift: f64, phi_max: f64) -> usize {
+        let merges = self.merge_tiny_with(min_area, false);
+        let exposing = self.merge_tiny_with(min_area, true);
+        if exposing > 0 {
+            let mut seam = self.seam.clone();
+            cutgraph::attach_isolated(self.mesh, dirs, &mut seam, self.singular, drift, phi_max);
+            for e in self.mesh.edges() {
+                if seam[e] && !self.seam[e] {
+                    self.seam[e] = true;
+                    for v in self.mesh.edge_vertices(e) {
+                        self.degree[v] += 1;
+                    }
+                }
+            }
+        }
+        merges + exposing
+    }
+
+    fn merge_tiny_with(&mut self, min_area: f64, allow_exposing: bool) -> usize {
         let mut merges = 0;
         loop {
             let area = |fs: &[FaceId]| fs.iter().map(|&f| self.mesh.face_area(f)).sum::<f64>();
@@ -1126,7 +1159,7 @@ impl<'a> State<'a> {
                 for (_, _, a, b, edges) in options {
                     // Keep the neighbour's label.
                     let (keep, gone) = if a == t { (b, a) } else { (a, b) };
-                    if let Some((info, _, union)) = self.evaluate(keep, gone, &edges)
+                    if let Some((info, _, union)) = self.evaluate_with(keep, gone, &edges, allow_exposing)
                         && info.is_disk()
                     {
                         self.apply(keep, gone, &edges, union);
