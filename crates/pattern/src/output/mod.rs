@@ -113,6 +113,20 @@ pub(crate) struct Item {
     pub(crate) prim: Prim,
 }
 
+/// A text baseline angle (degrees) that reads upright, in (−90°, 90°]: texts are centred on their
+/// position, so one that would read upside down (e.g. on a piece placed at 180°) is turned by
+/// 180° in place.
+fn upright(angle_deg: f64) -> f64 {
+    let a = angle_deg.rem_euclid(360.0);
+    if a > 90.0 && a <= 270.0 {
+        a - 180.0
+    } else if a > 270.0 {
+        a - 360.0
+    } else {
+        a
+    }
+}
+
 /// The drawing of one piece, in roll coordinates (`placed`) or piece coordinates; items are
 /// sorted by layer, in a fixed order within each layer.
 pub(crate) fn piece_items(piece: &Piece, placed: bool) -> Vec<Item> {
@@ -120,10 +134,7 @@ pub(crate) fn piece_items(piece: &Piece, placed: bool) -> Vec<Item> {
     let tf = |p: P2| add(rotate_quarter(p, rot), off);
     let tfv = |v: &[P2]| v.iter().map(|&p| tf(p)).collect::<Vec<_>>();
     let text = |t: &Text| {
-        let mut a = t.angle_deg + f64::from(rot);
-        if a > 180.0 {
-            a -= 360.0;
-        }
+        let a = upright(t.angle_deg + f64::from(rot));
         Prim::Text(Text { text: t.text.clone(), position: tf(t.position), height: t.height, angle_deg: a })
     };
     let th = piece.labels.first().map_or(12.0, |t| t.height);
@@ -212,4 +223,18 @@ pub(crate) fn helvetica_width(text: &str) -> f64 {
         })
         .sum::<f64>()
         / 1000.0
+}
+
+#[cfg(test)]
+mod upright_tests {
+    use super::upright;
+
+    #[test]
+    fn texts_stay_upright_on_turned_pieces() {
+        for (angle, want) in
+            [(180.0, 0.0), (0.0, 0.0), (210.0, 30.0), (90.0, 90.0), (270.0, 90.0), (170.0, -10.0), (-100.0, 80.0)]
+        {
+            assert!((upright(angle) - want).abs() < 1e-12, "{angle}: {}", upright(angle));
+        }
+    }
 }
