@@ -1,28 +1,11 @@
 //! End-to-end tests of the whole pipeline through the binary (issue 6): `clothcast run` writes
 //! every file, the pieces add up to the target's area, the pattern files agree.
 
+mod common;
+use common::*;
+
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("clothcast-patterns-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_clothcast")).args(args).output().expect("binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-fn data(rel: &str) -> String {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel).to_string_lossy().into_owned()
-}
+use std::path::Path;
 
 /// Every file present and consistent; returns the summary.
 fn check_run(out: &Path) -> Value {
@@ -120,7 +103,15 @@ fn run_on_the_example_writes_everything() {
 #[test]
 fn run_on_fertility_writes_everything() {
     let out = tmpdir("fertility");
-    let o = run(&["run", &data("closed/fertility.off"), "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
+    let o = run(&[
+        "run",
+        data("closed/fertility.off").to_str().unwrap(),
+        "--height",
+        "0.5",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let s = check_run(&out);
     assert_eq!(s["input"]["genus"], 4);

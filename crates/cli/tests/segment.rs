@@ -1,25 +1,11 @@
 //! End-to-end tests of the segmentation stage through the binary.
 
+mod common;
+use common::*;
+
 use clothcast_mesh::io::{read_ply, read_ply_properties};
 use serde_json::Value;
 use std::collections::BTreeSet;
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("clothcast-segment-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_clothcast")).args(args).output().expect("binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
 
 #[test]
 fn segment_writes_patches_seams_and_summary() {
@@ -111,8 +97,8 @@ fn bad_layout_config_is_an_input_error() {
 #[test]
 fn spot_has_no_tiny_patches_and_field_aligned_seams() {
     let out = tmpdir("spot");
-    let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/spot.ply");
-    let o = run(&["segment", mesh, "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
+    let mesh = data("closed/spot.ply");
+    let o = run(&["segment", mesh.to_str().unwrap(), "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let g = &s["segmentation"];

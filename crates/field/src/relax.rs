@@ -18,8 +18,8 @@
 
 use crate::cross::CrossField;
 use crate::smoothing::{AngleSolver, Smoother};
+use clothcast_mesh::util::MinCost;
 use clothcast_mesh::{EdgeData, FaceData, HalfedgeId, Mesh, VertexId};
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// Options of the relaxation.
@@ -40,20 +40,6 @@ pub struct RelaxReport {
     pub cancelled: usize,
 }
 
-#[derive(PartialEq)]
-struct Item(f64, u32);
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-    }
-}
-
 /// Shortest edge paths from `src` to every interior vertex within `radius` (boundary vertices
 /// excluded): for each reached vertex, (distance, halfedge by which it was reached).
 fn dijkstra(mesh: &Mesh, src: VertexId, radius: f64) -> Vec<(VertexId, f64, Vec<HalfedgeId>)> {
@@ -62,9 +48,9 @@ fn dijkstra(mesh: &Mesh, src: VertexId, radius: f64) -> Vec<(VertexId, f64, Vec<
     let mut via: Vec<Option<HalfedgeId>> = vec![None; n];
     let mut heap = BinaryHeap::new();
     dist[src.idx()] = 0.0;
-    heap.push(Item(0.0, src.0));
+    heap.push(MinCost(0.0, src.0));
     let mut reached = Vec::new();
-    while let Some(Item(d, v)) = heap.pop() {
+    while let Some(MinCost(d, v)) = heap.pop() {
         let v = VertexId(v);
         if d > dist[v.idx()] {
             continue;
@@ -82,7 +68,7 @@ fn dijkstra(mesh: &Mesh, src: VertexId, radius: f64) -> Vec<(VertexId, f64, Vec<
             if nd <= radius && nd < dist[w.idx()] {
                 dist[w.idx()] = nd;
                 via[w.idx()] = Some(h);
-                heap.push(Item(nd, w.0));
+                heap.push(MinCost(nd, w.0));
             }
         }
     }

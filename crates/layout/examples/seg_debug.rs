@@ -3,6 +3,7 @@
 
 use clothcast_field::cross::connection;
 use clothcast_field::{CrossField, Singularity};
+use clothcast_layout::reroute::edge_deviation;
 use clothcast_layout::trace::{SeparatrixEnd, TraceOptions, trace_separatrices};
 use clothcast_layout::vertex_field::VertexField;
 use clothcast_layout::{LayoutOptions, segment};
@@ -153,18 +154,7 @@ fn main() {
                 let h0 = m.outgoing(w[0]).find(|&hh| m.head(hh) == w[1]);
                 let Some(hh) = h0 else { continue };
                 let d = m.vector(hh);
-                let e = m.edge(hh);
-                let dev = |f: clothcast_mesh::FaceId| {
-                    let n = m.face_normal(f);
-                    let t = (d - n * n.dot(&d)).normalize();
-                    let a = seg.field_directions[f];
-                    let b = n.cross(&a);
-                    a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos().to_degrees()
-                };
-                let phi = match m.edge_faces(e) {
-                    (a, Some(b)) => 0.5 * (dev(a) + dev(b)),
-                    (a, None) => dev(a),
-                };
+                let phi = edge_deviation(m, m.edge(hh), &seg.field_directions).to_degrees();
                 h[((phi / 5.0) as usize).min(9)] += d.norm();
                 len += d.norm();
                 acc += phi * d.norm();
@@ -182,13 +172,7 @@ fn main() {
                 acc += lens[i];
                 let frac = mid.min(total - mid) / total.max(1e-12);
                 let Some(hh) = m.outgoing(w[0]).find(|&hh| m.head(hh) == w[1]) else { continue };
-                let d = m.vector(hh);
-                let f = m.face(hh);
-                let n = m.face_normal(f);
-                let t = (d - n * n.dot(&d)).normalize();
-                let a = seg.field_directions[f];
-                let b = n.cross(&a);
-                let phi = a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos().to_degrees();
+                let phi = edge_deviation(m, m.edge(hh), &seg.field_directions).to_degrees();
                 let k = ((frac / 0.1) as usize).min(4);
                 pos[k].0 += phi * lens[i];
                 pos[k].1 += lens[i];

@@ -20,23 +20,9 @@
 use crate::LayoutError;
 use crate::patches::{Patches, patches, wedges};
 use clothcast_mesh::submesh::extract_submesh;
+use clothcast_mesh::util::MinCost;
 use clothcast_mesh::{EdgeData, FaceData, FaceId, Mesh, Vec3, VertexId};
-use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
-
-#[derive(PartialEq)]
-struct Item(f64, u32);
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-    }
-}
 
 /// The mesh cut open along `seam`, and the original vertex of every cut vertex.
 pub fn cut_open(mesh: &Mesh, seam: &EdgeData<bool>) -> (Mesh, Vec<VertexId>) {
@@ -87,9 +73,9 @@ fn dijkstra(m: &Mesh, cost: &EdgeData<f64>, sources: &[VertexId]) -> (Vec<f64>, 
     let mut heap = BinaryHeap::new();
     for &s in sources {
         dist[s.idx()] = 0.0;
-        heap.push(Item(0.0, s.0));
+        heap.push(MinCost(0.0, s.0));
     }
-    while let Some(Item(d, v)) = heap.pop() {
+    while let Some(MinCost(d, v)) = heap.pop() {
         let v = VertexId(v);
         if d > dist[v.idx()] {
             continue;
@@ -101,7 +87,7 @@ fn dijkstra(m: &Mesh, cost: &EdgeData<f64>, sources: &[VertexId]) -> (Vec<f64>, 
             if d + c < dist[w.idx()] {
                 dist[w.idx()] = d + c;
                 pred[w.idx()] = Some(v);
-                heap.push(Item(d + c, w.0));
+                heap.push(MinCost(d + c, w.0));
             }
         }
         if m.is_boundary_vertex(v) {
@@ -113,7 +99,7 @@ fn dijkstra(m: &Mesh, cost: &EdgeData<f64>, sources: &[VertexId]) -> (Vec<f64>, 
             if d + c < dist[w.idx()] {
                 dist[w.idx()] = d + c;
                 pred[w.idx()] = Some(v);
-                heap.push(Item(d + c, w.0));
+                heap.push(MinCost(d + c, w.0));
             }
         }
     }
@@ -223,12 +209,9 @@ pub fn attach_isolated(
         if !fixed[v] || mesh.is_boundary_vertex(v) {
             continue;
         }
-        let on_seam = |u: VertexId| {
-            mesh.is_boundary_vertex(u) || mesh.outgoing(u).any(|h| seam[mesh.edge(h)]) || {
-                // The incoming boundary-side edge is not an outgoing one; interior vertices are covered.
-                false
-            }
-        };
+        // (A boundary vertex counts whatever its edges; for the others the outgoing halfedges
+        // cover every edge.)
+        let on_seam = |u: VertexId| mesh.is_boundary_vertex(u) || mesh.outgoing(u).any(|h| seam[mesh.edge(h)]);
         if on_seam(v) {
             continue;
         }

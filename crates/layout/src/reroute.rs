@@ -29,9 +29,8 @@
 
 use crate::network;
 use crate::patches::{CornerRule, Patches, edge_between, patches_with};
-use clothcast_mesh::{EdgeData, FaceData, FaceId, HalfedgeId, Mesh, Vec3, VertexData, VertexId};
-use std::cmp::Ordering;
-use std::collections::{BTreeMap, BinaryHeap};
+use clothcast_mesh::geometry::shortest_edge_path;
+use clothcast_mesh::{EdgeData, EdgeId, FaceData, FaceId, HalfedgeId, Mesh, Vec3, VertexData, VertexId};
 
 /// Chains whose traced course deviates more than this from the field (length-weighted mean of
 /// the edge deviations, degrees) are not re-routed.
@@ -46,8 +45,6 @@ pub struct Rerouted {
     pub pins: VertexData<bool>,
     /// Chains re-routed.
     pub chains: usize,
-    /// Chains considered but kept (re-route failed or changed the patches).
-    pub kept: usize,
 }
 
 /// Re-route the chains of `seam` (nodes: `fixed` plus the network's own nodes) along
@@ -76,7 +73,6 @@ pub fn reroute(
             continue;
         }
         let Some(path) = reroute_chain(mesh, &out.seam, &current.patch_of_face, chain, dirs, spacing, mean_edge) else {
-            out.kept += 1;
             continue;
         };
         let mut trial = out.seam.clone();
@@ -92,7 +88,6 @@ pub fn reroute(
         }
         let after = patches_with(mesh, &trial, rule);
         if after.n != current.n || (0..after.n).any(|i| !after.is_disk(i)) || quads(&after) < quads(&current) {
-            out.kept += 1;
             continue;
         }
         out.seam = trial;
@@ -116,17 +111,21 @@ fn chain_deviation(mesh: &Mesh, chain: &[VertexId], dirs: &FaceData<Vec3>) -> f6
     let (mut acc, mut len) = (0.0, 0.0);
     for w in chain.windows(2) {
         let Some(e) = edge_between(mesh, w[0], w[1]) else { continue };
-        let d = mesh.position(w[1]) - mesh.position(w[0]);
-        let l = d.norm();
-        let (a, b) = mesh.edge_faces(e);
-        let mut phi = arm_deviation(mesh, a, &d, dirs);
-        if let Some(b) = b {
-            phi = 0.5 * (phi + arm_deviation(mesh, b, &d, dirs));
-        }
-        acc += phi * l;
+        let l = mesh.edge_length(e);
+        acc += edge_deviation(mesh, e, dirs) * l;
         len += l;
     }
     if len > 0.0 { acc / len } else { 0.0 }
+}
+
+/// Angle (radians) between edge `e` and the nearest arm of the cross, the mean over the edge's
+/// faces (the measure of `seam_field_deviation_median_deg`).
+pub fn edge_deviation(mesh: &Mesh, e: EdgeId, dirs: &FaceData<Vec3>) -> f64 {
+    let d = mesh.vector(mesh.edge_halfedge(e));
+    match mesh.edge_faces(e) {
+        (a, Some(b)) => 0.5 * (arm_deviation(mesh, a, &d, dirs) + arm_deviation(mesh, b, &d, dirs)),
+        (a, None) => arm_deviation(mesh, a, &d, dirs),
+    }
 }
 
 /// Angle between `d` (projected on face `f`) and the nearest arm of the cross there.
@@ -241,8 +240,7 @@ fn reroute_chain(
         if used[target] {
             return None;
         }
-        let leg = shortest_path(mesh, w[0], target, &|v| v == target || (allowed(v) && !used[v]));
-        let leg = leg?;
+        let leg = shortest_edge_path(mesh, w[0], target, &|v| allowed(v) && !used[v])?;
         for &v in &leg[1..] {
             used[v] = true;
             path.push(v);
@@ -386,53 +384,6 @@ fn ray_segment(p: &Vec3, u: &Vec3, x: &Vec3, y: &Vec3, n: &Vec3) -> Option<(f64,
     }
     let r = r.clamp(0.0, 1.0);
     Some((s, x + e * r))
-}
-
-/// Shortest edge path from `a` to `b` through vertices with `ok(v)` (Dijkstra on edge lengths).
-fn shortest_path(mesh: &Mesh, a: VertexId, b: VertexId, ok: &impl Fn(VertexId) -> bool) -> Option<Vec<VertexId>> {
-    #[derive(PartialEq)]
-    struct Item(f64, VertexId);
-    impl Eq for Item {}
-    impl Ord for Item {
-        fn cmp(&self, o: &Self) -> Ordering {
-            o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
-        }
-    }
-    impl PartialOrd for Item {
-        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-            Some(self.cmp(o))
-        }
-    }
-    let mut dist: BTreeMap<VertexId, (f64, VertexId)> = BTreeMap::new();
-    let mut heap = BinaryHeap::new();
-    dist.insert(a, (0.0, a));
-    heap.push(Item(0.0, a));
-    while let Some(Item(d, v)) = heap.pop() {
-        if v == b {
-            let mut path = vec![b];
-            let mut c = b;
-            while c != a {
-                c = dist[&c].1;
-                path.push(c);
-            }
-            path.reverse();
-            return Some(path);
-        }
-        if d > dist[&v].0 {
-            continue;
-        }
-        for w in mesh.vertex_neighbors(v) {
-            if !ok(w) {
-                continue;
-            }
-            let nd = d + (mesh.position(w) - mesh.position(v)).norm();
-            if dist.get(&w).is_none_or(|x| nd < x.0) {
-                dist.insert(w, (nd, v));
-                heap.push(Item(nd, w));
-            }
-        }
-    }
-    None
 }
 
 #[cfg(test)]

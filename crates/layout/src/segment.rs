@@ -43,7 +43,7 @@ use crate::flipout::{FlipOutOptions, straighten_network};
 use crate::network;
 use crate::patches::{CornerRule, RegionInfo, edge_between, patches, patches_with, region_info, seam_edges};
 use crate::remesh::{RemeshOptions, insert_polylines};
-use crate::split::{field_aligned_split, spectral_split};
+use crate::split::{field_aligned_split, spectral_split, two_sides};
 use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
 use crate::vertex_field::VertexField;
 use clothcast_field::{CrossField, Singularity};
@@ -272,17 +272,16 @@ pub fn segment(
     // 6. Smooth seams: straighten and remesh once.
     stats.straightened = opts.smooth_seams;
     if opts.smooth_seams {
-        let stage_before_smoothing = stage.clone();
         let no_pins = VertexData::filled(stage.mesh.n_vertices(), false);
-        let (plain, plain_ok) = smooth(stage.clone(), &no_pins, opts)?;
+        let traced = opts.follow_streamlines.then(|| stage.clone());
+        let (plain, plain_ok) = smooth(stage, &no_pins, opts)?;
         stage = plain;
         stats.straightened &= plain_ok;
-        if opts.follow_streamlines {
+        if let Some(base) = &traced {
             // Re-route along streamlines; keep the result when, straightened, it has at least as
             // many quads (corners depend on the final geometry, so both are straightened and
             // compared). Chains next to patches that lost their quad are then left alone and
             // the re-route is tried once more.
-            let base = &stage_before_smoothing;
             let labels = patches(&base.mesh, &base.seam).patch_of_face;
             let sides = |chain: &[VertexId]| -> [u32; 2] {
                 let e = edge_between(&base.mesh, chain[0], chain[1]).expect("chains are edge paths");
@@ -304,9 +303,11 @@ pub fn segment(
                     .map(|v| v.iter().max_by_key(|(_, c)| **c).map(|(q, _)| p.corners[*q].len()).unwrap_or(0))
                     .collect();
                 let quads = p.corners.iter().filter(|c| c.len() == 4).count();
-                (quads, seam_deviation(&s.mesh, &s.seam, &fd).1, per_base)
+                (quads, per_base)
             };
-            let (best_q, _, plain_corners) = quality(&stage);
+            let (best_q, plain_corners) = quality(&stage);
+            let traced_rule =
+                CornerRule::new(&base.mesh, &base.index).with_chords(CHORD_STEPS).with_field(dirs.clone());
             let mut lost: BTreeSet<u32> = BTreeSet::new();
             for round in 0..2 {
                 let skip = |chain: &[VertexId]| sides(chain).iter().any(|p| lost.contains(p));
@@ -315,7 +316,7 @@ pub fn segment(
                     &base.seam,
                     &base.singular,
                     &dirs,
-                    &CornerRule::new(&base.mesh, &base.index).with_chords(CHORD_STEPS).with_field(dirs.clone()),
+                    &traced_rule,
                     REROUTE_PIN_EDGES * base.mesh.mean_edge_length(),
                     &skip,
                 );
@@ -325,8 +326,8 @@ pub fn segment(
                 let mut alt = base.clone();
                 alt.seam = r.seam;
                 let (alt, alt_ok) = smooth(alt, &r.pins, opts)?;
-                let (q, dev, corners) = quality(&alt);
-                tracing::debug!(round, rerouted = r.chains, quads = q, quads_plain = best_q, dev, "re-route");
+                let (q, corners) = quality(&alt);
+                tracing::debug!(round, rerouted = r.chains, quads = q, quads_plain = best_q, "re-route");
                 if (alt_ok || !stats.straightened) && q >= best_q {
                     stage = alt;
                     stats.straightened = alt_ok;
@@ -657,27 +658,11 @@ fn seam_deviation(mesh: &Mesh, seam: &EdgeData<bool>, dirs: &FaceData<Vec3>) -> 
         if !seam[e] || mesh.is_boundary_edge(e) {
             continue;
         }
-        let h = mesh.edge_halfedge(e);
-        let d = mesh.vector(h);
-        let len = d.norm();
+        let len = mesh.edge_length(e);
         if len <= 0.0 {
             continue;
         }
-        let dev = |f: FaceId| {
-            let n = mesh.face_normal(f);
-            let t = d - n * n.dot(&d);
-            if t.norm() <= 0.0 {
-                return 0.0;
-            }
-            let t = t.normalize();
-            let a = dirs[f];
-            let b = n.cross(&a);
-            a.dot(&t).abs().max(b.dot(&t).abs()).clamp(0.0, 1.0).acos()
-        };
-        let phi = match mesh.edge_faces(e) {
-            (a, Some(b)) => 0.5 * (dev(a) + dev(b)),
-            (a, None) => dev(a),
-        };
+        let phi = crate::reroute::edge_deviation(mesh, e, dirs);
         samples.push((phi.to_degrees(), len));
     }
     let total: f64 = samples.iter().map(|s| s.1).sum();
@@ -1054,27 +1039,7 @@ impl<'a> State<'a> {
 
     /// The faces of a patch split by extra cut edges, if they fall in exactly two parts.
     fn two_sides(&self, faces: &[FaceId], cut: &BTreeSet<EdgeId>) -> Option<(Vec<FaceId>, Vec<FaceId>)> {
-        let mut uf = clothcast_mesh::util::UnionFind::new(faces.len());
-        for (i, &f) in faces.iter().enumerate() {
-            for k in 0..3 {
-                let h = self.mesh.face_halfedge(f, k);
-                let Some(t) = self.mesh.twin(h) else { continue };
-                let e = self.mesh.edge(h);
-                if self.seam[e] || cut.contains(&e) {
-                    continue;
-                }
-                if let Ok(j) = faces.binary_search(&self.mesh.face(t)) {
-                    uf.union(i as u32, j as u32);
-                }
-            }
-        }
-        let (labels, n) = uf.labels();
-        if n != 2 {
-            return None;
-        }
-        let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
-        let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
-        Some((a, b))
+        two_sides(self.mesh, faces, &|e| self.seam[e] || cut.contains(&e))
     }
 
     /// Split patch `p` into sides `a` (keeps the label) and `b` (a new label), making the edges

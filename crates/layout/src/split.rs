@@ -190,15 +190,7 @@ pub fn spectral_split(
         let mut b: Vec<FaceId> = order[k + 1..].iter().map(|&i| faces[i]).collect();
         a.sort_unstable();
         b.sort_unstable();
-        let side_label = |f: FaceId| -> u32 {
-            if label(f) != own {
-                label(f)
-            } else if a.binary_search(&f).is_ok() {
-                u32::MAX
-            } else {
-                u32::MAX - 1
-            }
-        };
+        let side_label = |f: FaceId| side_label(label(f), own, &a, f);
         let info_a = region_info(mesh, &a, &side_label, seam, rule);
         if !info_a.is_disk() {
             continue;
@@ -210,6 +202,47 @@ pub fn spectral_split(
         return Ok(Some(Split { a, b, info_a, info_b, ncut }));
     }
     Ok(None)
+}
+
+/// The label of face `f` while patch `own` is being split into `a` (sorted) and the rest: its
+/// own label outside the patch, `u32::MAX` on side `a`, `u32::MAX − 1` on the other side.
+fn side_label(label: u32, own: u32, a: &[FaceId], f: FaceId) -> u32 {
+    if label != own {
+        label
+    } else if a.binary_search(&f).is_ok() {
+        u32::MAX
+    } else {
+        u32::MAX - 1
+    }
+}
+
+/// The faces of a patch (`faces`, sorted) separated across the edges where `cut(e)`, if they
+/// fall in exactly two connected parts.
+pub(crate) fn two_sides(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    cut: &impl Fn(EdgeId) -> bool,
+) -> Option<(Vec<FaceId>, Vec<FaceId>)> {
+    let mut uf = UnionFind::new(faces.len());
+    for (i, &f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let h = mesh.face_halfedge(f, k);
+            let Some(t) = mesh.twin(h) else { continue };
+            if cut(mesh.edge(h)) {
+                continue;
+            }
+            if let Ok(j) = faces.binary_search(&mesh.face(t)) {
+                uf.union(i as u32, j as u32);
+            }
+        }
+    }
+    let (labels, n) = uf.labels();
+    if n != 2 {
+        return None;
+    }
+    let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
+    let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
+    Some((a, b))
 }
 
 /// Replace the interface of a spectral split by a field-aligned cut: from the interface's
@@ -289,42 +322,14 @@ pub fn field_aligned_split(
     cut.extend_from_slice(&half2[1..]);
     // The two sides: patch faces connected across edges that are neither cuts nor the new seam.
     let cut_edges: BTreeSet<EdgeId> = cut.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
-    let mut uf = UnionFind::new(faces.len());
-    for (i, &f) in faces.iter().enumerate() {
-        for k in 0..3 {
-            let h = mesh.face_halfedge(f, k);
-            let Some(t) = mesh.twin(h) else { continue };
-            let e = mesh.edge(h);
-            if seam(e) || cut_edges.contains(&e) {
-                continue;
-            }
-            if let Ok(j) = faces.binary_search(&mesh.face(t)) {
-                uf.union(i as u32, j as u32);
-            }
-        }
-    }
-    let (labels, n) = uf.labels();
-    if n != 2 {
-        return None;
-    }
-    let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
-    let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
+    let (a, b) = two_sides(mesh, faces, &|e| seam(e) || cut_edges.contains(&e))?;
     let area = |fs: &[FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
     let (aa, ab) = (area(&a), area(&b));
     if aa.min(ab) < (2.0 / 3.0) * MIN_SIDE * (aa + ab) {
         return None;
     }
-    let side_label = |f: FaceId| -> u32 {
-        if label(f) != own {
-            label(f)
-        } else if a.binary_search(&f).is_ok() {
-            u32::MAX
-        } else {
-            u32::MAX - 1
-        }
-    };
-    let seam_all = |e: EdgeId| seam(e);
-    let info_a = region_info(mesh, &a, &side_label, &seam_all, rule);
-    let info_b = region_info(mesh, &b, &side_label, &seam_all, rule);
+    let side_label = |f: FaceId| side_label(label(f), own, &a, f);
+    let info_a = region_info(mesh, &a, &side_label, seam, rule);
+    let info_b = region_info(mesh, &b, &side_label, seam, rule);
     (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: split.ncut })
 }

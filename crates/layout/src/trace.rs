@@ -26,9 +26,8 @@
 
 use crate::vertex_field::VertexField;
 use clothcast_field::Singularity;
-use clothcast_mesh::util::SplitMix64;
+use clothcast_mesh::util::{MinCost, SplitMix64};
 use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// Tracing options.
@@ -76,20 +75,6 @@ pub struct Separatrix {
     pub arms: Vec<u8>,
     /// How it ended.
     pub end: SeparatrixEnd,
-}
-
-#[derive(PartialEq)]
-struct Item(f64, u32);
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-    }
 }
 
 /// What a vertex is during tracing.
@@ -207,9 +192,9 @@ fn capture_zones(
     for (i, s) in singularities.iter().enumerate() {
         dist[s.vertex.idx()] = 0.0;
         which[s.vertex.idx()] = i as u32;
-        heap.push(Item(0.0, s.vertex.0));
+        heap.push(MinCost(0.0, s.vertex.0));
     }
-    while let Some(Item(d, v)) = heap.pop() {
+    while let Some(MinCost(d, v)) = heap.pop() {
         let v = VertexId(v);
         if d > dist[v.idx()] {
             continue;
@@ -222,7 +207,7 @@ fn capture_zones(
                 dist[u.idx()] = nd;
                 which[u.idx()] = i as u32;
                 pred[u] = Some(v);
-                heap.push(Item(nd, u.0));
+                heap.push(MinCost(nd, u.0));
             }
         }
     }
@@ -390,8 +375,8 @@ pub fn trace_separatrices(
             dist[start as usize] = 0.0;
             touched.push(start);
             let mut heap = BinaryHeap::new();
-            heap.push(Item(0.0, start));
-            while let Some(Item(d, node)) = heap.pop() {
+            heap.push(MinCost(0.0, start));
+            while let Some(MinCost(d, node)) = heap.pop() {
                 if d > dist[node as usize] {
                     continue;
                 }
@@ -442,7 +427,7 @@ pub fn trace_separatrices(
                         }
                         dist[next as usize] = nd;
                         prev[next as usize] = node;
-                        heap.push(Item(nd, next));
+                        heap.push(MinCost(nd, next));
                     }
                 }
             }
@@ -535,8 +520,8 @@ pub fn field_path(
     let s = 4 * start.0 + k0 as u32;
     dist.insert(s, (0.0, u32::MAX));
     let mut heap = BinaryHeap::new();
-    heap.push(Item(0.0, s));
-    while let Some(Item(d, node)) = heap.pop() {
+    heap.push(MinCost(0.0, s));
+    while let Some(MinCost(d, node)) = heap.pop() {
         if dist.get(&node).is_some_and(|&(x, _)| d > x) {
             continue;
         }
@@ -590,7 +575,7 @@ pub fn field_path(
             let next = 4 * u.0 + k2 as u32;
             if dist.get(&next).is_none_or(|&(x, _)| nd < x) {
                 dist.insert(next, (nd, node));
-                heap.push(Item(nd, next));
+                heap.push(MinCost(nd, next));
             }
         }
     }

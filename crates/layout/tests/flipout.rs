@@ -5,9 +5,9 @@
 use clothcast_layout::flipout::{FlipOutOptions, straighten_network};
 use clothcast_layout::surface::polyline_length;
 use clothcast_layout::{LayoutError, SurfacePoint};
+use clothcast_mesh::geometry::shortest_edge_path;
 use clothcast_mesh::util::SplitMix64;
 use clothcast_mesh::{FaceId, Mesh, Vec3, VertexId, shapes};
-use std::collections::BinaryHeap;
 use std::f64::consts::PI;
 
 fn vid(i: usize) -> VertexId {
@@ -116,53 +116,7 @@ fn planar_crossing(m: &Mesh, p: &[SurfacePoint], q: &[SurfacePoint]) -> bool {
 
 /// Shortest edge path by Dijkstra, avoiding the `blocked` vertices.
 fn dijkstra(m: &Mesh, s: VertexId, t: VertexId, blocked: &[bool]) -> Option<Vec<VertexId>> {
-    #[derive(PartialEq)]
-    struct Item(f64, u32);
-    impl Eq for Item {}
-    impl PartialOrd for Item {
-        fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-            Some(self.cmp(o))
-        }
-    }
-    impl Ord for Item {
-        fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-            o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-        }
-    }
-    let n = m.n_vertices();
-    let mut dist = vec![f64::INFINITY; n];
-    let mut from = vec![u32::MAX; n];
-    let mut heap = BinaryHeap::new();
-    dist[s.idx()] = 0.0;
-    heap.push(Item(0.0, s.0));
-    while let Some(Item(d, v)) = heap.pop() {
-        if d > dist[v as usize] {
-            continue;
-        }
-        if v == t.0 {
-            break;
-        }
-        for w in m.vertex_neighbors(VertexId(v)) {
-            if blocked[w.idx()] && w != t {
-                continue;
-            }
-            let nd = d + (m.position(w) - m.position(VertexId(v))).norm();
-            if nd < dist[w.idx()] {
-                dist[w.idx()] = nd;
-                from[w.idx()] = v;
-                heap.push(Item(nd, w.0));
-            }
-        }
-    }
-    if !dist[t.idx()].is_finite() {
-        return None;
-    }
-    let mut path = vec![t];
-    while *path.last().unwrap() != s {
-        path.push(VertexId(from[path.last().unwrap().idx()]));
-    }
-    path.reverse();
-    Some(path)
+    shortest_edge_path(m, s, t, &|v| !blocked[v.idx()])
 }
 
 fn straighten(m: &Mesh, paths: &[Vec<VertexId>]) -> Vec<Vec<SurfacePoint>> {

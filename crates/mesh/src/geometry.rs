@@ -225,6 +225,49 @@ impl Mesh {
     }
 }
 
+/// Shortest edge path from `a` to `b` (Dijkstra on edge lengths) through vertices with `ok(v)`;
+/// `b` itself need not be `ok`. Ties go to the smaller vertex id. Distances are kept sparse, so a
+/// short search on a large mesh costs only what it visits.
+pub fn shortest_edge_path(
+    mesh: &Mesh,
+    a: VertexId,
+    b: VertexId,
+    ok: &impl Fn(VertexId) -> bool,
+) -> Option<Vec<VertexId>> {
+    use crate::util::MinCost;
+    let mut dist: std::collections::HashMap<VertexId, (f64, VertexId)> = std::collections::HashMap::new();
+    let mut heap = std::collections::BinaryHeap::new();
+    dist.insert(a, (0.0, a));
+    heap.push(MinCost(0.0, a.0));
+    while let Some(MinCost(d, v)) = heap.pop() {
+        let v = VertexId(v);
+        if v == b {
+            let mut path = vec![b];
+            let mut c = b;
+            while c != a {
+                c = dist[&c].1;
+                path.push(c);
+            }
+            path.reverse();
+            return Some(path);
+        }
+        if d > dist[&v].0 {
+            continue;
+        }
+        for w in mesh.vertex_neighbors(v) {
+            if w != b && !ok(w) {
+                continue;
+            }
+            let nd = d + (mesh.position(w) - mesh.position(v)).norm();
+            if dist.get(&w).is_none_or(|x| nd < x.0) {
+                dist.insert(w, (nd, v));
+                heap.push(MinCost(nd, w.0));
+            }
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

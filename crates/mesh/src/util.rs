@@ -1,4 +1,4 @@
-//! Small shared utilities: union–find, a seeded RNG, edge keys.
+//! Small shared utilities: union–find, a seeded RNG, edge keys, a min-heap entry.
 
 /// Disjoint-set forest with path halving and union by size.
 #[derive(Clone, Debug)]
@@ -53,6 +53,25 @@ impl UnionFind {
             labels[i as usize] = label_of_root[r];
         }
         (labels, k as usize)
+    }
+}
+
+/// A priority-queue entry that makes [`std::collections::BinaryHeap`] a min-heap on a cost:
+/// the smallest cost pops first, ties by the smaller id, so that searches are deterministic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MinCost(pub f64, pub u32);
+
+impl Eq for MinCost {}
+
+impl PartialOrd for MinCost {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+impl Ord for MinCost {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
     }
 }
 
