@@ -133,8 +133,6 @@ pub struct FlattenReport {
     pub fiber_alignment_other_rule_deg: f64,
     /// Orientation rule used.
     pub orientation: Option<Orientation>,
-    /// Per piece: fibre alignment median (degrees).
-    pub fiber_alignment_per_piece_deg: Vec<f64>,
     /// Per piece: area ratio, quasi-conformal ratio, flips and fibre alignment (patch order).
     pub per_piece: Vec<PieceReport>,
     /// Pieces re-flattened because the first flattening had flipped triangles.
@@ -275,16 +273,12 @@ pub fn flatten_segmentation(
         };
         let rot = nalgebra::Rotation2::new(phi);
         let uv: VertexData<Vec2> = flat.uv.map(|q| rot * (q - centroid));
-        let deviation = |rotation: f64| -> f64 {
-            let samples: Vec<(f64, f64)> = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + rotation), a)).collect();
-            weighted_median(samples)
-        };
-        let dev = deviation(phi);
-        all_main.extend(mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi), a)));
+        let samples: Vec<(f64, f64)> = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi), a)).collect();
+        all_main.extend_from_slice(&samples);
+        let dev = weighted_median(samples);
         all_other.extend(mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi_other), a)));
         let stats = distortion(&pm, &uv);
         runs.push(seam_runs(&uv, &outline, &seg_vertex, &seam_edge));
-        report.fiber_alignment_per_piece_deg.push(dev);
         patches.push(FlatPatch {
             patch: p as u32,
             mesh: pm,

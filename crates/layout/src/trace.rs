@@ -396,29 +396,12 @@ pub fn trace_separatrices(
                 }
                 let arm = vf.arm(v, k);
                 for u in mesh.vertex_neighbors(v) {
-                    let e = mesh.position(u) - mesh.position(v);
-                    let len = e.norm();
-                    let (n_v, n_u) = (vf.normal[v], vf.normal[u]);
-                    let t_v = e - n_v * n_v.dot(&e);
-                    if t_v.norm() < 1e-300 {
+                    let Some((k2, cost)) = arc(mesh, vf, v, &arm, u, cutoff, phi_max, opts.drift_penalty) else {
                         continue;
-                    }
-                    let phi_v = arm.dot(&t_v.normalize()).clamp(-1.0, 1.0).acos();
-                    if phi_v > cutoff {
-                        continue;
-                    }
-                    let (k2, _) = vf.best_arm(u, &arm);
-                    let t_u = e - n_u * n_u.dot(&e);
-                    let phi_u = if t_u.norm() > 1e-300 {
-                        vf.arm(u, k2).dot(&t_u.normalize()).clamp(-1.0, 1.0).acos()
-                    } else {
-                        phi_v
                     };
                     if !enter_ok(&mark, &taken, v, u, k2) {
                         continue;
                     }
-                    let phi = 0.5 * (phi_v + phi_u);
-                    let cost = len * (1.0 + opts.drift_penalty * (phi / phi_max).powi(2));
                     let next = 4 * u.0 + k2 as u32;
                     let nd = d + cost;
                     if nd < dist[next as usize] {
@@ -555,23 +538,10 @@ pub fn field_path(
             if u == start || !allowed(u) {
                 continue;
             }
-            let e = mesh.position(u) - mesh.position(v);
-            let n_v = vf.normal[v];
-            let t_v = e - n_v * n_v.dot(&e);
-            if t_v.norm() < 1e-300 {
+            let Some((k2, cost)) = arc(mesh, vf, v, &arm, u, cutoff, phi_max, opts.drift_penalty) else {
                 continue;
-            }
-            let phi_v = arm.dot(&t_v.normalize()).clamp(-1.0, 1.0).acos();
-            if phi_v > cutoff {
-                continue;
-            }
-            let (k2, _) = vf.best_arm(u, &arm);
-            let n_u = vf.normal[u];
-            let t_u = e - n_u * n_u.dot(&e);
-            let phi_u =
-                if t_u.norm() > 1e-300 { vf.arm(u, k2).dot(&t_u.normalize()).clamp(-1.0, 1.0).acos() } else { phi_v };
-            let phi = 0.5 * (phi_v + phi_u);
-            let nd = d + e.norm() * (1.0 + opts.drift_penalty * (phi / phi_max).powi(2));
+            };
+            let nd = d + cost;
             let next = 4 * u.0 + k2 as u32;
             if dist.get(&next).is_none_or(|&(x, _)| nd < x) {
                 dist.insert(next, (nd, node));
@@ -580,6 +550,38 @@ pub fn field_path(
         }
     }
     None
+}
+
+/// The arc from `v` travelling along `arm` to its neighbour `u`: the arm `k2` of `u` it arrives
+/// on and its cost `ℓ (1 + D (φ/φ_max)²)`, φ the mean deviation at both ends; `None` when the
+/// edge is more than `cutoff` off the arm at `v` (or degenerate).
+#[allow(clippy::too_many_arguments)]
+fn arc(
+    mesh: &Mesh,
+    vf: &VertexField,
+    v: VertexId,
+    arm: &Vec3,
+    u: VertexId,
+    cutoff: f64,
+    phi_max: f64,
+    drift_penalty: f64,
+) -> Option<(usize, f64)> {
+    let e = mesh.position(u) - mesh.position(v);
+    let n_v = vf.normal[v];
+    let t_v = e - n_v * n_v.dot(&e);
+    if t_v.norm() < 1e-300 {
+        return None;
+    }
+    let phi_v = arm.dot(&t_v.normalize()).clamp(-1.0, 1.0).acos();
+    if phi_v > cutoff {
+        return None;
+    }
+    let (k2, _) = vf.best_arm(u, arm);
+    let n_u = vf.normal[u];
+    let t_u = e - n_u * n_u.dot(&e);
+    let phi_u = if t_u.norm() > 1e-300 { vf.arm(u, k2).dot(&t_u.normalize()).clamp(-1.0, 1.0).acos() } else { phi_v };
+    let phi = 0.5 * (phi_v + phi_u);
+    Some((k2, e.norm() * (1.0 + drift_penalty * (phi / phi_max).powi(2))))
 }
 
 /// Whether the step `from → v` makes at least 45° with every seam edge at `v` (see

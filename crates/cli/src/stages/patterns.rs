@@ -7,7 +7,7 @@ use crate::input::Input;
 use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
-use clothcast_flatten::{FlatPieces, FlattenOptions, Orientation, flatten_segmentation};
+use clothcast_flatten::{FlatPieces, FlattenOptions, flatten_segmentation};
 use clothcast_layout::Segmentation;
 use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
 use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
@@ -88,10 +88,8 @@ pub fn run(
         r.qc_max,
         100.0 * r.seam_length_mismatch_max_rel,
         r.fiber_alignment_median_deg,
-        match cfg.pattern.orientation {
-            Orientation::Field => "field",
-            Orientation::LongestSide => "longest-side",
-        },
+        // The name as in the configuration (serde's kebab-case).
+        serde_json::to_value(cfg.pattern.orientation).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default(),
         r.fiber_alignment_other_rule_deg,
         r.seconds
     ));
