@@ -262,8 +262,9 @@ pub fn segment(
         let merges = if opts.merge { state.merge_quads(opts.max_developability) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
+        let to_quads = state.split_to_quads(&vf, &trace_opts, opts.max_splits);
         let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area(), &dirs, opts.drift_penalty, phi_max);
-        (state.seam, merges, splits + concave, tiny)
+        (state.seam, merges, splits + concave + to_quads, tiny)
     };
     stage.seam = seam;
     stats.merges = merges + tiny_merges;
@@ -925,7 +926,7 @@ impl<'a> State<'a> {
                     if q < CONCAVE_QUARTERS || failed.contains(&(p, v)) {
                         continue;
                     }
-                    if let Some((a, b)) = self.best_concave_split(p, v, bad, vf, trace) {
+                    if let Some((a, b)) = self.best_corner_split(p, v, bad, vf, trace) {
                         self.apply_split(p, a, b);
                         splits += 1;
                         continue 'outer;
@@ -938,8 +939,55 @@ impl<'a> State<'a> {
         splits
     }
 
-    /// The best field-aligned split of patch `p` from its concave corner `v`, as the two sides.
-    fn best_concave_split(
+    /// Split non-quad patches from their corners (convex ones too, where
+    /// [`Self::split_concave`] only starts at concave ones): a field-aligned trace from a
+    /// corner into the patch until its boundary, where the new seam makes a T-junction and gives
+    /// the patches on the far side a corner (a triangle next to a pentagon becomes a quad, and
+    /// the pentagon two quads). A split is kept when the total distance from four corners,
+    /// Σ |corners − 4| over the split patch and every patch the new seam's ends touch,
+    /// decreases. Returns the number of splits.
+    fn split_to_quads(&mut self, vf: &VertexField, trace: &TraceOptions, max_splits: usize) -> usize {
+        let mut splits = 0;
+        let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
+        'outer: while splits < max_splits {
+            for p in 0..self.faces.len() as u32 {
+                if self.faces[p as usize].is_empty() {
+                    continue;
+                }
+                let info = self.info_of(p);
+                let bad = info.corners.len().abs_diff(4);
+                if bad == 0 {
+                    continue;
+                }
+                for &v in &info.corners {
+                    if failed.contains(&(p, v)) {
+                        continue;
+                    }
+                    if let Some((a, b)) = self.best_corner_split(p, v, bad, vf, trace) {
+                        self.apply_split(p, a, b);
+                        splits += 1;
+                        continue 'outer;
+                    }
+                    failed.insert((p, v));
+                }
+            }
+            break;
+        }
+        splits
+    }
+
+    /// Topology and corners of patch `p` under the current labels and seams.
+    fn info_of(&self, p: u32) -> RegionInfo {
+        let label = |f: FaceId| self.label[f];
+        let seam = |e: EdgeId| self.seam[e];
+        region_info(self.mesh, &self.faces[p as usize], &label, &seam, &self.rule)
+    }
+
+    /// The best field-aligned split of patch `p` from its corner or concave point `v`, as the
+    /// two sides: traced into the patch along a field arm until the patch boundary. `bad` is the
+    /// patch's Σ |corners − 4|; a split must lower that sum over both sides and the patches that
+    /// meet the new seam's ends (the far end is a T-junction: a new corner of the patches there).
+    fn best_corner_split(
         &self,
         p: u32,
         v: VertexId,
@@ -1025,13 +1073,23 @@ impl<'a> State<'a> {
             if !ia.is_disk() || !ib.is_disk() {
                 continue;
             }
-            let after = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4);
-            if after >= bad {
+            // The other patches at the new seam's ends gain a corner where it meets them.
+            let ends = [path[0], *path.last().expect("paths have two vertices")];
+            let others: BTreeSet<u32> =
+                ends.iter().flat_map(|&u| mesh.vertex_faces(u)).map(|f| self.label[f]).filter(|&q| q != p).collect();
+            let (mut before, mut after) = (bad, ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4));
+            for &q in &others {
+                let fq = &self.faces[q as usize];
+                before += self.info_of(q).corners.len().abs_diff(4);
+                after += region_info(mesh, fq, &label, &seam, &self.rule).corners.len().abs_diff(4);
+            }
+            if after >= before {
                 continue;
             }
             let len: f64 = path.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum();
-            if best.as_ref().is_none_or(|(ba, bl, _, _)| after < *ba || (after == *ba && len < *bl)) {
-                best = Some((after, len, a, b));
+            let gain = before - after;
+            if best.as_ref().is_none_or(|(bg, bl, _, _)| gain > *bg || (gain == *bg && len < *bl)) {
+                best = Some((gain, len, a, b));
             }
         }
         best.map(|(_, _, a, b)| (a, b))
