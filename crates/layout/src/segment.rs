@@ -941,11 +941,11 @@ impl<'a> State<'a> {
 
     /// Split non-quad patches from their corners (convex ones too, where
     /// [`Self::split_concave`] only starts at concave ones): a field-aligned trace from a
-    /// corner into the patch until its boundary, where the new seam makes a T-junction and gives
-    /// the patches on the far side a corner (a triangle next to a pentagon becomes a quad, and
-    /// the pentagon two quads). A split is kept when the total distance from four corners,
-    /// Σ |corners − 4| over the split patch and every patch the new seam's ends touch,
-    /// decreases. Returns the number of splits.
+    /// corner into the patch until its boundary, where the new seam ends in a T-junction. The
+    /// patches at the new seam's ends are counted again (a T-junction gives the patch across it
+    /// a corner only where its side bends, see [`crate::patches`]), and the split is kept when
+    /// the total distance from four corners, Σ |corners − 4| over the split patch and those
+    /// patches, decreases. Returns the number of splits.
     fn split_to_quads(&mut self, vf: &VertexField, trace: &TraceOptions, max_splits: usize) -> usize {
         let mut splits = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
@@ -986,7 +986,7 @@ impl<'a> State<'a> {
     /// The best field-aligned split of patch `p` from its corner or concave point `v`, as the
     /// two sides: traced into the patch along a field arm until the patch boundary. `bad` is the
     /// patch's Σ |corners − 4|; a split must lower that sum over both sides and the patches that
-    /// meet the new seam's ends (the far end is a T-junction: a new corner of the patches there).
+    /// meet the new seam's ends (counted again with the new seam).
     fn best_corner_split(
         &self,
         p: u32,
