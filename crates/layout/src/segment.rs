@@ -902,51 +902,35 @@ impl<'a> State<'a> {
 
     /// Split non-quad patches at their concave corners (an angle of three quarter turns, an
     /// L-shaped patch): trace from the corner along a field arm pointing into the patch until the
-    /// patch boundary (Pietroni et al. 2016 complete their layouts the same way). A split is kept
-    /// when both sides are disks and together they are closer to quads (Σ |corners − 4|
-    /// decreases). Returns the number of splits.
+    /// patch boundary (Pietroni et al. 2016 complete their layouts the same way). Returns the
+    /// number of splits; see [`Self::split_from`] for when a split is kept.
     fn split_concave(&mut self, vf: &VertexField, trace: &TraceOptions, max_splits: usize) -> usize {
-        let mut splits = 0;
-        let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
-        'outer: while splits < max_splits {
-            for p in 0..self.faces.len() as u32 {
-                if self.faces[p as usize].is_empty() {
-                    continue;
-                }
-                let info = {
-                    let label = |f: FaceId| self.label[f];
-                    let seam = |e: EdgeId| self.seam[e];
-                    region_info(self.mesh, &self.faces[p as usize], &label, &seam, &self.rule)
-                };
-                let bad = info.corners.len().abs_diff(4);
-                if bad == 0 {
-                    continue;
-                }
-                for &(v, q) in &info.candidates {
-                    if q < CONCAVE_QUARTERS || failed.contains(&(p, v)) {
-                        continue;
-                    }
-                    if let Some((a, b)) = self.best_corner_split(p, v, bad, vf, trace) {
-                        self.apply_split(p, a, b);
-                        splits += 1;
-                        continue 'outer;
-                    }
-                    failed.insert((p, v));
-                }
-            }
-            break;
-        }
-        splits
+        self.split_from(vf, trace, max_splits, |info| {
+            info.candidates.iter().filter(|&&(_, q)| q >= CONCAVE_QUARTERS).map(|&(v, _)| v).collect()
+        })
     }
 
     /// Split non-quad patches from their corners (convex ones too, where
     /// [`Self::split_concave`] only starts at concave ones): a field-aligned trace from a
-    /// corner into the patch until its boundary, where the new seam ends in a T-junction. The
-    /// patches at the new seam's ends are counted again (a T-junction gives the patch across it
-    /// a corner only where its side bends, see [`crate::patches`]), and the split is kept when
-    /// the total distance from four corners, Σ |corners − 4| over the split patch and those
-    /// patches, decreases. Returns the number of splits.
+    /// corner into the patch until its boundary, where the new seam ends in a T-junction.
+    /// Returns the number of splits.
     fn split_to_quads(&mut self, vf: &VertexField, trace: &TraceOptions, max_splits: usize) -> usize {
+        self.split_from(vf, trace, max_splits, |info| info.corners.clone())
+    }
+
+    /// Split non-quad patches by field-aligned traces from the boundary vertices `starts` picks
+    /// out of each patch's [`RegionInfo`], one split at a time, until none is accepted or
+    /// `max_splits` is reached. A split is kept when both sides are disks and the total distance
+    /// from four corners, Σ |corners − 4| over the split patch and the patches at the new seam's
+    /// ends (counted again: a T-junction gives the patch across it a corner only where its side
+    /// bends, see [`crate::patches`]), decreases. Returns the number of splits.
+    fn split_from(
+        &mut self,
+        vf: &VertexField,
+        trace: &TraceOptions,
+        max_splits: usize,
+        starts: impl Fn(&RegionInfo) -> Vec<VertexId>,
+    ) -> usize {
         let mut splits = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
         'outer: while splits < max_splits {
@@ -959,7 +943,7 @@ impl<'a> State<'a> {
                 if bad == 0 {
                     continue;
                 }
-                for &v in &info.corners {
+                for v in starts(&info) {
                     if failed.contains(&(p, v)) {
                         continue;
                     }
@@ -1038,6 +1022,8 @@ impl<'a> State<'a> {
             }
         }
         let neighbours: BTreeSet<VertexId> = mesh.vertex_neighbors(v).into_iter().collect();
+        // Σ |corners − 4| of the other patches as they are, computed once per patch.
+        let mut bad_now: BTreeMap<u32, usize> = BTreeMap::new();
         let mut best: Option<(usize, f64, Vec<FaceId>, Vec<FaceId>)> = None;
         for d in dirs {
             let (k, _) = vf.best_arm(v, &d);
@@ -1073,14 +1059,14 @@ impl<'a> State<'a> {
             if !ia.is_disk() || !ib.is_disk() {
                 continue;
             }
-            // The other patches at the new seam's ends gain a corner where it meets them.
+            // The other patches at the new seam's ends, counted again with the new seam.
             let ends = [path[0], *path.last().expect("paths have two vertices")];
             let others: BTreeSet<u32> =
                 ends.iter().flat_map(|&u| mesh.vertex_faces(u)).map(|f| self.label[f]).filter(|&q| q != p).collect();
             let (mut before, mut after) = (bad, ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4));
             for &q in &others {
+                before += *bad_now.entry(q).or_insert_with(|| self.info_of(q).corners.len().abs_diff(4));
                 let fq = &self.faces[q as usize];
-                before += self.info_of(q).corners.len().abs_diff(4);
                 after += region_info(mesh, fq, &label, &seam, &self.rule).corners.len().abs_diff(4);
             }
             if after >= before {
