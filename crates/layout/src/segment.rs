@@ -258,8 +258,8 @@ pub fn segment(
     // between chords a few edges long, as the straightened seams will run.
     let (seam, merges, splits, tiny_merges) = {
         let scores = vertex_scores(&stage.mesh);
-        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs);
-        let merges = if opts.merge { state.merge_quads(opts.max_developability) } else { 0 };
+        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs, CHORD_STEPS);
+        let merges = if opts.merge { state.merge_quads(opts.max_developability, false) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
         let to_quads = state.split_to_quads(&vf, &trace_opts, opts.max_splits);
@@ -349,20 +349,31 @@ pub fn segment(
     }
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
-    // Straightening can shrink a patch below the tiny threshold: one more pass on the final mesh.
-    let (seam, late_tiny) = {
+    let final_chords = if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS };
+    // On the final seams, where corners are counted as reported: merge a patch that is not a
+    // quad with a neighbour when the union is one (the corners before straightening were
+    // measured on the traced seams and can differ). Straightening can also shrink a patch below
+    // the tiny threshold: one more tiny pass.
+    let (seam, late_merges) = {
         let scores = vertex_scores(&stage.mesh);
-        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field_directions);
+        let mut state = State::new(
+            &stage.mesh,
+            &stage.seam,
+            &stage.singular,
+            &stage.index,
+            &scores,
+            &field_directions,
+            final_chords,
+        );
+        let fixes = if opts.merge { state.merge_quads(opts.max_developability, true) } else { 0 };
         let m = state.merge_tiny(opts.min_patch_fraction * total_area, &field_directions, opts.drift_penalty, phi_max);
-        (state.seam, m)
+        (state.seam, fixes + m)
     };
     stage.seam = seam;
-    stats.merges += late_tiny;
+    stats.merges += late_merges;
 
     // 7. Verify and report.
-    let rule = CornerRule::new(&stage.mesh, &stage.index)
-        .with_chords(if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS })
-        .with_field(field_directions.clone());
+    let rule = CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
     let p = patches_with(&stage.mesh, &stage.seam, &rule);
     if let Some(bad) = (0..p.n).find(|&i| !p.is_disk(i)) {
         return Err(LayoutError::NotADisk { patch: bad, euler: p.euler[bad], boundary_loops: p.loops[bad] });
@@ -713,6 +724,7 @@ impl<'a> State<'a> {
         index: &VertexData<i32>,
         scores: &'a VertexData<f64>,
         field: &FaceData<Vec3>,
+        chords: usize,
     ) -> Self {
         let p = patches(mesh, seam);
         let faces = p.faces();
@@ -728,7 +740,7 @@ impl<'a> State<'a> {
             scores,
             density,
             vertex_areas,
-            rule: CornerRule::new(mesh, index).with_chords(CHORD_STEPS).with_field(field.clone()),
+            rule: CornerRule::new(mesh, index).with_chords(chords).with_field(field.clone()),
             degree: network::seam_degree(mesh, seam),
         }
     }
@@ -826,8 +838,9 @@ impl<'a> State<'a> {
         out
     }
 
-    /// Greedy merges into quads; returns the number of merges.
-    fn merge_quads(&mut self, max_dev: f64) -> usize {
+    /// Greedy merges into quads; returns the number of merges. With `fix_only`, only merges that
+    /// do not lower the number of quads (at least one of the two patches is not a quad).
+    fn merge_quads(&mut self, max_dev: f64, fix_only: bool) -> usize {
         let mut merges = 0;
         // Cache of evaluated pairs: (a, b) → candidate if acceptable.
         let mut cache: BTreeMap<(u32, u32), Option<Candidate>> = BTreeMap::new();
@@ -846,7 +859,8 @@ impl<'a> State<'a> {
                     }
                     _ => {
                         let c = self.evaluate(a, b, &edges).and_then(|(info, score, _)| {
-                            (info.is_disk() && info.corners.len() == 4 && score <= max_dev).then(|| Candidate {
+                            let keeps_quads = !fix_only || self.merge_fixes_corners(a, b, &edges);
+                            (info.is_disk() && info.corners.len() == 4 && score <= max_dev && keeps_quads).then(|| Candidate {
                                 a,
                                 b,
                                 length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
@@ -898,6 +912,39 @@ impl<'a> State<'a> {
             merges += 1;
         }
         merges
+    }
+
+    /// Whether merging `b` into `a` across `edges` (the union a quad) helps the layout: the
+    /// patches at the removed seam (the two, and the others whose corners the removal changes)
+    /// keep at least as many quads and get no further from four corners in total, and at least
+    /// one of the two was not a quad.
+    fn merge_fixes_corners(&self, a: u32, b: u32, edges: &[EdgeId]) -> bool {
+        let mesh = self.mesh;
+        let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
+        let others: BTreeSet<u32> = edges
+            .iter()
+            .flat_map(|&e| mesh.edge_vertices(e))
+            .flat_map(|v| mesh.vertex_faces(v))
+            .map(|f| self.label[f])
+            .filter(|&q| q != a && q != b)
+            .collect();
+        let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
+        let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
+        let mut counts_before: Vec<usize> = vec![self.info_of(a).corners.len()];
+        if a != b {
+            counts_before.push(self.info_of(b).corners.len());
+        }
+        if counts_before.iter().all(|&c| c == 4) {
+            return false;
+        }
+        let mut counts_after: Vec<usize> = vec![4];
+        for &q in &others {
+            counts_before.push(self.info_of(q).corners.len());
+            counts_after.push(region_info(mesh, &self.faces[q as usize], &label, &seam, &self.rule).corners.len());
+        }
+        let quads = |c: &[usize]| c.iter().filter(|&&k| k == 4).count();
+        let bad = |c: &[usize]| c.iter().map(|&k| k.abs_diff(4)).sum::<usize>();
+        quads(&counts_after) >= quads(&counts_before) && bad(&counts_after) <= bad(&counts_before)
     }
 
     /// Split non-quad patches at their concave corners (an angle of three quarter turns, an
