@@ -347,30 +347,44 @@ pub fn segment(
             }
         }
     }
+    let final_chords = if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS };
+    // On the final seams, where corners are counted as reported (the corners before
+    // straightening were measured on the traced seams and can differ): merge a patch that is
+    // not a quad with a neighbour when the union is one, then split non-quads from a corner.
+    for _ in 0..LATE_ROUNDS {
+        let mut merged = 0;
+        if opts.merge {
+            let field_directions = final_field(&stage, &dirs);
+            let scores = vertex_scores(&stage.mesh);
+            let mut state = State::new(
+                &stage.mesh,
+                &stage.seam,
+                &stage.singular,
+                &stage.index,
+                &scores,
+                &field_directions,
+                final_chords,
+            );
+            merged = state.merge_quads(opts.max_developability, true);
+            stats.merges += merged;
+            stage.seam = state.seam;
+        }
+        let mut split = 0;
+        if stats.straightened {
+            let (late_stage, n, m) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts)?;
+            stage = late_stage;
+            split = n;
+            stats.splits += n;
+            stats.merges += m;
+        }
+        if merged + split == 0 {
+            break;
+        }
+    }
+    // Straightening can shrink a patch below the tiny threshold: one more tiny pass.
+    stats.merges += tiny_pass(&mut stage, &dirs, final_chords, opts);
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
-    let final_chords = if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS };
-    // On the final seams, where corners are counted as reported: merge a patch that is not a
-    // quad with a neighbour when the union is one (the corners before straightening were
-    // measured on the traced seams and can differ). Straightening can also shrink a patch below
-    // the tiny threshold: one more tiny pass.
-    let (seam, late_merges) = {
-        let scores = vertex_scores(&stage.mesh);
-        let mut state = State::new(
-            &stage.mesh,
-            &stage.seam,
-            &stage.singular,
-            &stage.index,
-            &scores,
-            &field_directions,
-            final_chords,
-        );
-        let fixes = if opts.merge { state.merge_quads(opts.max_developability, true) } else { 0 };
-        let m = state.merge_tiny(opts.min_patch_fraction * total_area, &field_directions, opts.drift_penalty, phi_max);
-        (state.seam, fixes + m)
-    };
-    stage.seam = seam;
-    stats.merges += late_merges;
 
     // 7. Verify and report.
     let rule = CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
@@ -464,6 +478,80 @@ pub fn segment(
         mesh: stage.mesh,
         stats,
     })
+}
+
+/// Corner splits ([`State::split_to_quads`]) on the final, straightened seams, where corners
+/// are counted as reported: the new seams are traced on the final mesh and straightened with
+/// every existing seam vertex pinned (the other seams stay as they are). Kept when the
+/// straightened result, after the tiny pass, has a larger share of quads, only disks and no
+/// tiny patch; returns the stage to use, the splits kept and the tiny merges they brought.
+fn late_splits(
+    stage: &Stage,
+    dirs: &FaceData<Vec3>,
+    trace: &TraceOptions,
+    chords: usize,
+    opts: &LayoutOptions,
+) -> Result<(Stage, usize, usize), LayoutError> {
+    let mesh = &stage.mesh;
+    let field_directions = &final_field(stage, dirs);
+    let theta: FaceData<f64> = mesh
+        .face_ids()
+        .map(|f| {
+            let fr = mesh.face_frame(f);
+            let d = field_directions[f];
+            d.dot(&fr.b2).atan2(d.dot(&fr.b1))
+        })
+        .collect();
+    let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
+    let vf = VertexField::from_face_field(mesh, &cross);
+    let scores = vertex_scores(mesh);
+    let mut state = State::new(mesh, &stage.seam, &stage.singular, &stage.index, &scores, field_directions, chords);
+    let n = state.split_to_quads(&vf, trace, opts.max_splits);
+    if n == 0 {
+        return Ok((stage.clone(), 0, 0));
+    }
+    // Measured after the tiny pass that follows (a split may cut off a sliver that then merges
+    // into another neighbour).
+    let quad_share = |s: &Stage| {
+        let mut s = s.clone();
+        let merges = tiny_pass(&mut s, dirs, chords, opts);
+        let fd = final_field(&s, dirs);
+        let rule = CornerRule::new(&s.mesh, &s.index).with_chords(chords).with_field(fd);
+        let p = patches_with(&s.mesh, &s.seam, &rule);
+        let quads = p.corners.iter().filter(|c| c.len() == 4).count();
+        let min_area = opts.min_patch_fraction * s.mesh.total_area();
+        let valid = (0..p.n).all(|i| p.is_disk(i) && p.area[i] >= min_area);
+        (quads as f64 / p.n.max(1) as f64, valid, s, merges)
+    };
+    let mut pins = VertexData::filled(mesh.n_vertices(), false);
+    for e in mesh.edges() {
+        if stage.seam[e] {
+            for v in mesh.edge_vertices(e) {
+                pins[v] = true;
+            }
+        }
+    }
+    let mut alt = stage.clone();
+    alt.seam = state.seam;
+    let (alt, ok) = smooth(alt, &pins, opts)?;
+    let (before, ..) = quad_share(stage);
+    let (after, valid, alt, merges) = quad_share(&alt);
+    tracing::debug!(splits = n, merges, ok, before, after, valid, "late corner splits");
+    if ok && valid && after > before { Ok((alt, n, merges)) } else { Ok((stage.clone(), 0, 0)) }
+}
+
+/// Merge patches below `min_patch_fraction` of the area into a neighbour, on a stage's own
+/// field and corners ([`State::merge_tiny`]); returns the merges.
+fn tiny_pass(stage: &mut Stage, dirs: &FaceData<Vec3>, chords: usize, opts: &LayoutOptions) -> usize {
+    let field_directions = final_field(stage, dirs);
+    let scores = vertex_scores(&stage.mesh);
+    let min_area = opts.min_patch_fraction * stage.mesh.total_area();
+    let mut state =
+        State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field_directions, chords);
+    let m = state.merge_tiny(min_area, &field_directions, opts.drift_penalty, opts.max_deviation_deg.to_radians());
+    let seam = state.seam;
+    stage.seam = seam;
+    m
 }
 
 /// The field's arm on every face of a (remeshed) stage: its input face's, in its own plane.
@@ -587,6 +675,9 @@ const REROUTE_PIN_EDGES: f64 = 5.0;
 
 /// Rounds of straightening in [`smooth`].
 const SMOOTH_ATTEMPTS: usize = 8;
+
+/// Rounds of merges and corner splits on the final seams.
+const LATE_ROUNDS: usize = 3;
 
 /// Polylines whose interior shares a point (vertex or edge point) with another polyline.
 fn touching_chains(polylines: &[Vec<crate::SurfacePoint>]) -> Vec<usize> {
