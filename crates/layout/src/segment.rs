@@ -23,14 +23,21 @@
 //!    them ([`crate::remesh`]). Chains that touch after straightening (which FlipOut allows,
 //!    and which would pinch a patch) are pinned more and straightened again; if the patch
 //!    topology still changed, the traced seams are kept and the report says so.
+//! 6b. **Late repairs**, on the final seams where corners are counted as reported (up to
+//!    three rounds): a patch that is not a quad merges with a neighbour when the union is a
+//!    quad within `max_developability` and the patches at the removed seam keep their quads;
+//!    then non-quads are split from a corner along the field on the final mesh, the new seams
+//!    straightened with every old seam vertex pinned, kept when the share of quads (after the
+//!    tiny pass) rises. A last tiny pass follows.
 //! 7. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
 //!    per patch (counted in the field's quarter turns, see [`crate::patches::CornerRule`]),
 //!    quad fraction, singularities inside patches, seam length, seam–field deviation,
 //!    developability, smallest angles.
 //!
 //! Steps 3–5 run on the traced (jagged) seams, with corner angles measured between chords a few
-//! edges long, as the straightened seams will run; straightening and remeshing happen once, so
-//! remeshing never compounds.
+//! edges long, as the straightened seams will run. Straightening and remeshing run once for
+//! the whole network, and again in step 6b only for accepted late splits; the pinned old seams
+//! are already mesh edges there, so only the new seams' faces are cut.
 //!
 //! Complexity: tracing O(S · V log V) for S separatrices in the worst case; cutting, chains,
 //! remeshing O(F log F); FlipOut O(flips); merging O(merges · F_local log F); splitting one sparse
@@ -258,7 +265,8 @@ pub fn segment(
     // between chords a few edges long, as the straightened seams will run.
     let (seam, merges, splits, tiny_merges) = {
         let scores = vertex_scores(&stage.mesh);
-        let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs, CHORD_STEPS);
+        let mut state =
+            State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs, CHORD_STEPS);
         let merges = if opts.merge { state.merge_quads(opts.max_developability, false) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
@@ -387,7 +395,8 @@ pub fn segment(
     let field_directions = final_field(&stage, &dirs);
 
     // 7. Verify and report.
-    let rule = CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
+    let rule =
+        CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
     let p = patches_with(&stage.mesh, &stage.seam, &rule);
     if let Some(bad) = (0..p.n).find(|&i| !p.is_disk(i)) {
         return Err(LayoutError::NotADisk { patch: bad, euler: p.euler[bad], boundary_loops: p.loops[bad] });
@@ -951,12 +960,14 @@ impl<'a> State<'a> {
                     _ => {
                         let c = self.evaluate(a, b, &edges).and_then(|(info, score, _)| {
                             let keeps_quads = !fix_only || self.merge_fixes_corners(a, b, &edges);
-                            (info.is_disk() && info.corners.len() == 4 && score <= max_dev && keeps_quads).then(|| Candidate {
-                                a,
-                                b,
-                                length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
-                                edges: edges.clone(),
-                                score,
+                            (info.is_disk() && info.corners.len() == 4 && score <= max_dev && keeps_quads).then(|| {
+                                Candidate {
+                                    a,
+                                    b,
+                                    length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
+                                    edges: edges.clone(),
+                                    score,
+                                }
                             })
                         });
                         cache.insert(
@@ -1378,5 +1389,99 @@ impl<'a> State<'a> {
             splits += 1;
         }
         Ok(splits)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clothcast_mesh::shapes;
+
+    /// A 3 × 2 flat grid (cells of 0.25) cut into patches by `region` of the face centroids,
+    /// with the field along x. The states below count corners as the late passes do (short
+    /// chords: these seams are the final ones, their bends are meant).
+    fn flat_layout(region: impl Fn(f64, f64) -> u32) -> (Mesh, EdgeData<bool>, FaceData<Vec3>) {
+        let mesh = shapes::grid(12, 8, 3.0, 2.0);
+        let region_of: FaceData<u32> = mesh
+            .face_ids()
+            .map(|f| {
+                let c = mesh.face_centroid(f);
+                region(c.x, c.y)
+            })
+            .collect();
+        let seam: EdgeData<bool> =
+            mesh.edges().map(|e| matches!(mesh.edge_faces(e), (a, Some(b)) if region_of[a] != region_of[b])).collect();
+        let dirs: FaceData<Vec3> = mesh.face_ids().map(|_| Vec3::new(1.0, 0.0, 0.0)).collect();
+        (mesh, seam, dirs)
+    }
+
+    /// The label of the face at (x, y) and the corner count of its patch.
+    fn corners_at(state: &State<'_>, x: f64, y: f64) -> (u32, usize) {
+        let f = state
+            .mesh
+            .face_ids()
+            .min_by(|&a, &b| {
+                let d = |f: FaceId| (state.mesh.face_centroid(f) - Vec3::new(x, y, 0.0)).norm();
+                d(a).total_cmp(&d(b))
+            })
+            .expect("faces");
+        let p = state.label[f];
+        (p, state.info_of(p).corners.len())
+    }
+
+    #[test]
+    fn late_merge_joins_a_pentagon_and_a_triangle_into_a_quad() {
+        // A: an L (five corners: its concave corner is none, its 90° corner at the T-junction
+        // (2, 1) is one); C: the square in the L's notch (three corners: (1, 1) joins only two
+        // patches); D: a rectangle with a T-junction on its straight side (four).
+        let (mesh, seam, dirs) = flat_layout(|x, y| {
+            if x > 2.0 {
+                2
+            } else if x > 1.0 && y > 1.0 {
+                1
+            } else {
+                0
+            }
+        });
+        let n = mesh.n_vertices();
+        let (singular, index) = (VertexData::filled(n, false), VertexData::filled(n, 0));
+        let scores = vertex_scores(&mesh);
+        let mut state = State::new(&mesh, &seam, &singular, &index, &scores, &dirs, FINAL_CHORD_STEPS);
+        let (a, ca) = corners_at(&state, 0.5, 0.5);
+        let (c, cc) = corners_at(&state, 1.5, 1.5);
+        let (d, cd) = corners_at(&state, 2.5, 1.0);
+        assert_eq!((ca, cc, cd), (5, 3, 4));
+        assert_eq!(state.merge_quads(f64::INFINITY, true), 1);
+        let (a2, ca2) = corners_at(&state, 0.5, 0.5);
+        assert_eq!(corners_at(&state, 1.5, 1.5).0, a2, "A and C merged");
+        assert!(a2 == a || a2 == c);
+        assert_eq!(ca2, 4);
+        assert_eq!(corners_at(&state, 2.5, 1.0), (d, 4), "D keeps its four corners");
+        // The union is flat, so it passes any developability limit; a limit below its score
+        // (zero here) cannot be met, and nothing merges.
+        let mut strict = State::new(&mesh, &seam, &singular, &index, &scores, &dirs, FINAL_CHORD_STEPS);
+        assert_eq!(strict.merge_quads(-1.0, true), 0);
+    }
+
+    #[test]
+    fn late_merge_leaves_quads_alone() {
+        // Three rectangles side by side: every union of two is a quad, but only the plain merge
+        // takes it (the late merge is for patches that are not quads).
+        let (mesh, seam, dirs) = flat_layout(|x, _| {
+            if x > 2.0 {
+                2
+            } else if x > 1.0 {
+                1
+            } else {
+                0
+            }
+        });
+        let n = mesh.n_vertices();
+        let (singular, index) = (VertexData::filled(n, false), VertexData::filled(n, 0));
+        let scores = vertex_scores(&mesh);
+        let mut state = State::new(&mesh, &seam, &singular, &index, &scores, &dirs, FINAL_CHORD_STEPS);
+        assert_eq!([0.5, 1.5, 2.5].map(|x| corners_at(&state, x, 1.0).1), [4, 4, 4]);
+        assert_eq!(state.merge_quads(f64::INFINITY, true), 0);
+        assert!(state.merge_quads(f64::INFINITY, false) >= 1);
     }
 }
