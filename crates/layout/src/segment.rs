@@ -415,6 +415,10 @@ pub fn segment(
             developability: region_score(&stage.mesh, &faces[i], &label, &cut, &scores),
         })
         .collect();
+    for (i, info) in patch_infos.iter().enumerate().filter(|(_, info)| info.corners.len() != 4) {
+        let candidates: Vec<String> = info.candidates.iter().map(|(v, q)| format!("{}:{q:.2}", v.idx())).collect();
+        tracing::debug!(patch = i, corners = info.corners.len(), candidates = candidates.join(" "), "not a quad");
+    }
     let chains = network::chains(&stage.mesh, &stage.seam, &stage.singular);
     let seams: Vec<Seam> = chains
         .into_iter()

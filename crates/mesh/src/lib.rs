@@ -22,6 +22,7 @@ pub mod geometry;
 pub mod ids;
 pub mod io;
 pub mod mesh;
+pub mod ordering;
 pub mod repair;
 pub mod shapes;
 pub mod soup;
