@@ -2,7 +2,8 @@
 //!
 //! Each iteration: assemble the gradient and the Hessian (elastic part projected to PSD, see
 //! [`crate::element`]; pressure part exact), factor `H + μD` with the sparse Cholesky whose
-//! symbolic analysis (node-level AMD ordering) was done once, solve for the step, and backtrack
+//! symbolic analysis (node-level AMD or nested dissection, whichever factor is smaller) was
+//! done once, solve for the step, and backtrack
 //! along it until the energy decreases enough (Armijo). When the previous factor is a good
 //! preconditioner, conjugate gradients replace the factorization (inexact Newton). `D` is a lumped stiffness scale (reference stiffness ×
 //! vertex area / mean edge²) and μ ≥ 0 an adaptive Levenberg–Marquardt damping: raised when
