@@ -113,6 +113,8 @@ pub struct LayoutSection {
     pub follow_streamlines: bool,
     /// Merge adjacent patches when the union is a developable quad.
     pub merge: bool,
+    /// Merges and corner splits again on the final, straightened seams.
+    pub late_repairs: bool,
     /// Split patches whose developability score exceeds this (`inf`: never).
     pub max_developability: f64,
     /// Patches below this share of the area are merged into a neighbour.
@@ -134,6 +136,7 @@ impl Default for LayoutSection {
             pin_spacing: d.pin_spacing,
             follow_streamlines: d.follow_streamlines,
             merge: d.merge,
+            late_repairs: d.late_repairs,
             max_developability: d.max_developability,
             min_patch_fraction: d.min_patch_fraction,
             snap: d.snap,

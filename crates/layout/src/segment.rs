@@ -23,20 +23,20 @@
 //!    them ([`crate::remesh`]). Chains that touch after straightening (which FlipOut allows,
 //!    and which would pinch a patch) are pinned more and straightened again; if the patch
 //!    topology still changed, the traced seams are kept and the report says so.
-//! 6b. **Late repairs**, on the final seams where corners are counted as reported (up to
+//! 7. **Late repairs**, on the final seams where corners are counted as reported (up to
 //!    three rounds): a patch that is not a quad merges with a neighbour when the union is a
 //!    quad within `max_developability` and the patches at the removed seam keep their quads;
 //!    then non-quads are split from a corner along the field on the final mesh, the new seams
 //!    straightened with every old seam vertex pinned, kept when the share of quads (after the
 //!    tiny pass) rises. A last tiny pass follows.
-//! 7. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
+//! 8. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
 //!    per patch (counted in the field's quarter turns, see [`crate::patches::CornerRule`]),
 //!    quad fraction, singularities inside patches, seam length, seam–field deviation,
 //!    developability, smallest angles.
 //!
 //! Steps 3–5 run on the traced (jagged) seams, with corner angles measured between chords a few
 //! edges long, as the straightened seams will run. Straightening and remeshing run once for
-//! the whole network, and again in step 6b only for accepted late splits; the pinned old seams
+//! the whole network, and again in step 7 only for accepted late splits; the pinned old seams
 //! are already mesh edges there, so only the new seams' faces are cut.
 //!
 //! Complexity: tracing O(S · V log V) for S separatrices in the worst case; cutting, chains,
@@ -78,6 +78,8 @@ pub struct LayoutOptions {
     pub follow_streamlines: bool,
     /// Merge adjacent patches into quads.
     pub merge: bool,
+    /// Step 7 (module doc): merges and corner splits on the final (straightened) seams.
+    pub late_repairs: bool,
     /// Largest patch developability score `∫ min(κ₁², κ₂²) dA` before a patch is split
     /// (infinite: never split).
     pub max_developability: f64,
@@ -101,6 +103,7 @@ impl Default for LayoutOptions {
             pin_spacing: 12.0,
             follow_streamlines: true,
             merge: true,
+            late_repairs: true,
             max_developability: 2.5,
             min_patch_fraction: 0.005,
             snap: 0.2,
@@ -359,7 +362,7 @@ pub fn segment(
     // On the final seams, where corners are counted as reported (the corners before
     // straightening were measured on the traced seams and can differ): merge a patch that is
     // not a quad with a neighbour when the union is one, then split non-quads from a corner.
-    for _ in 0..LATE_ROUNDS {
+    for _ in 0..if opts.late_repairs { LATE_ROUNDS } else { 0 } {
         let mut merged = 0;
         if opts.merge {
             let field_directions = final_field(&stage, &dirs);
@@ -394,7 +397,7 @@ pub fn segment(
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
 
-    // 7. Verify and report.
+    // 8. Verify and report.
     let rule =
         CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
     let p = patches_with(&stage.mesh, &stage.seam, &rule);

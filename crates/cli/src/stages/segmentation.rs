@@ -23,6 +23,7 @@ pub fn options(cfg: &Config) -> LayoutOptions {
         pin_spacing: l.pin_spacing,
         follow_streamlines: l.follow_streamlines,
         merge: l.merge,
+        late_repairs: l.late_repairs,
         max_developability: l.max_developability,
         min_patch_fraction: l.min_patch_fraction,
         snap: l.snap,
