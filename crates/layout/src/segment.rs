@@ -1183,11 +1183,12 @@ impl<'a> State<'a> {
         let mut best: Option<(usize, f64, Vec<FaceId>, Vec<FaceId>)> = None;
         for d in dirs {
             let (k, _) = vf.best_arm(v, &d);
+            let target = |u: VertexId| on_boundary(u) && !neighbours.contains(&u);
+            // Through the patch's interior only (never along its boundary), to a target.
             let allowed = |u: VertexId| {
                 let touches = mesh.vertex_faces(u).any(&in_p);
-                touches && (on_boundary(u) || !self.singular[u])
+                touches && (if on_boundary(u) { target(u) } else { !self.singular[u] })
             };
-            let target = |u: VertexId| on_boundary(u) && !neighbours.contains(&u);
             let seam_at = |u: VertexId, w: VertexId| {
                 edge_between(mesh, u, w).is_some_and(|e| self.seam[e] || mesh.is_boundary_edge(e))
             };
