@@ -26,9 +26,9 @@
 //! 7. **Late repairs**, on the final seams where corners are counted as reported (up to
 //!    three rounds): a patch that is not a quad merges with a neighbour when the union is a
 //!    quad within `max_developability` and the patches at the removed seam keep their quads;
-//!    then non-quads are split from a corner along the field on the final mesh, the new seams
-//!    straightened with every old seam vertex pinned, kept when the share of quads (after the
-//!    tiny pass) rises. A last tiny pass follows.
+//!    then non-quads are split along the field from a concave corner or a corner, traced on
+//!    the final mesh, the new seams straightened with every old seam vertex pinned, kept when
+//!    the share of quads (after the tiny pass) rises. A last tiny pass follows.
 //! 8. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
 //!    per patch (counted in the field's quarter turns, see [`crate::patches::CornerRule`]),
 //!    quad fraction, singularities inside patches, seam length, seam–field deviation,
@@ -496,9 +496,10 @@ pub fn segment(
     })
 }
 
-/// Corner splits ([`State::split_to_quads`]) on the final, straightened seams, where corners
-/// are counted as reported: the new seams are traced on the final mesh and straightened with
-/// every existing seam vertex pinned (the other seams stay as they are). Kept when the
+/// Concave and corner splits ([`State::split_concave`], [`State::split_to_quads`]) on the
+/// final, straightened seams, where corners are counted as reported: the new seams are traced
+/// on the final mesh and straightened with every existing seam vertex pinned (the other seams
+/// stay as they are). Kept when the
 /// straightened result, after the tiny pass, has a larger share of quads, only disks and no
 /// tiny patch; returns the stage to use, the splits kept and the tiny merges they brought.
 fn late_splits(
@@ -522,7 +523,7 @@ fn late_splits(
     let vf = VertexField::from_face_field(mesh, &cross);
     let scores = vertex_scores(mesh);
     let mut state = State::new(mesh, &stage.seam, &stage.singular, &stage.index, &scores, field_directions, chords);
-    let n = state.split_to_quads(&vf, trace, opts.max_splits);
+    let n = state.split_concave(&vf, trace, opts.max_splits) + state.split_to_quads(&vf, trace, opts.max_splits);
     if n == 0 {
         return Ok((stage.clone(), 0, 0));
     }
