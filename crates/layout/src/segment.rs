@@ -382,7 +382,7 @@ pub fn segment(
         }
         let mut split = 0;
         if stats.straightened {
-            let (late_stage, n, m) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts)?;
+            let (late_stage, n, m) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts);
             stage = late_stage;
             split = n;
             stats.splits += n;
@@ -508,7 +508,7 @@ fn late_splits(
     trace: &TraceOptions,
     chords: usize,
     opts: &LayoutOptions,
-) -> Result<(Stage, usize, usize), LayoutError> {
+) -> (Stage, usize, usize) {
     let mesh = &stage.mesh;
     let field_directions = &final_field(stage, dirs);
     let theta: FaceData<f64> = mesh
@@ -525,7 +525,7 @@ fn late_splits(
     let mut state = State::new(mesh, &stage.seam, &stage.singular, &stage.index, &scores, field_directions, chords);
     let n = state.split_concave(&vf, trace, opts.max_splits) + state.split_to_quads(&vf, trace, opts.max_splits);
     if n == 0 {
-        return Ok((stage.clone(), 0, 0));
+        return (stage.clone(), 0, 0);
     }
     // Measured after the tiny pass that follows (a split may cut off a sliver that then merges
     // into another neighbour).
@@ -550,11 +550,18 @@ fn late_splits(
     }
     let mut alt = stage.clone();
     alt.seam = state.seam;
-    let (alt, ok) = smooth(alt, &pins, opts)?;
+    // The repair is optional: if straightening the new seams fails, the layout stays as it was.
+    let (alt, ok) = match smooth(alt, &pins, opts) {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::debug!(error = %e, "late splits dropped: straightening failed");
+            return (stage.clone(), 0, 0);
+        }
+    };
     let (before, ..) = quad_share(stage);
     let (after, valid, alt, merges) = quad_share(&alt);
     tracing::debug!(splits = n, merges, ok, before, after, valid, "late corner splits");
-    if ok && valid && after > before { Ok((alt, n, merges)) } else { Ok((stage.clone(), 0, 0)) }
+    if ok && valid && after > before { (alt, n, merges) } else { (stage.clone(), 0, 0) }
 }
 
 /// Merge patches below `min_patch_fraction` of the area into a neighbour, on a stage's own
