@@ -368,20 +368,11 @@ pub fn segment(
     for _ in 0..if opts.late_repairs { LATE_ROUNDS } else { 0 } {
         let mut merged = 0;
         if opts.merge {
-            let field_directions = final_field(&stage, &dirs);
-            let scores = vertex_scores(&stage.mesh);
-            let mut state = State::new(
-                &stage.mesh,
-                &stage.seam,
-                &stage.singular,
-                &stage.index,
-                &scores,
-                &field_directions,
-                final_chords,
-            );
-            merged = state.merge_quads(opts.max_developability, true);
+            let (seam, m) =
+                on_stage(&stage, &dirs, final_chords, |state, _| state.merge_quads(opts.max_developability, true));
+            stage.seam = seam;
+            merged = m;
             stats.merges += merged;
-            stage.seam = state.seam;
         }
         let mut split = 0;
         if stats.straightened {
@@ -421,13 +412,11 @@ pub fn segment(
             developability: region_score(&stage.mesh, &faces[i], &label, &cut, &scores),
         })
         .collect();
-    for (i, info) in patch_infos
-        .iter()
-        .enumerate()
-        .filter(|(_, info)| info.corners.len() != 4 && tracing::enabled!(tracing::Level::DEBUG))
-    {
-        let candidates: Vec<String> = info.candidates.iter().map(|(v, q)| format!("{}:{q:.2}", v.idx())).collect();
-        tracing::debug!(patch = i, corners = info.corners.len(), candidates = candidates.join(" "), "not a quad");
+    if tracing::enabled!(tracing::Level::DEBUG) {
+        for (i, info) in patch_infos.iter().enumerate().filter(|(_, info)| info.corners.len() != 4) {
+            let candidates: Vec<String> = info.candidates.iter().map(|(v, q)| format!("{}:{q:.2}", v.idx())).collect();
+            tracing::debug!(patch = i, corners = info.corners.len(), candidates = candidates.join(" "), "not a quad");
+        }
     }
     let chains = network::chains(&stage.mesh, &stage.seam, &stage.singular);
     let seams: Vec<Seam> = chains
@@ -518,18 +507,10 @@ fn late_splits(
     opts: &LayoutOptions,
 ) -> (Stage, usize, usize) {
     let mesh = &stage.mesh;
-    let field_directions = &final_field(stage, dirs);
-    let theta: FaceData<f64> = mesh
-        .face_ids()
-        .map(|f| {
-            let fr = mesh.face_frame(f);
-            let d = field_directions[f];
-            d.dot(&fr.b2).atan2(d.dot(&fr.b1))
-        })
-        .collect();
+    let field_directions = final_field(stage, dirs);
+    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
     let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
     let vf = VertexField::from_face_field(mesh, &cross);
-    let scores = vertex_scores(mesh);
     // Measured after the tiny pass that follows (a split may cut off a sliver that then merges
     // into another neighbour): share of quads, all disks, tiny patches left.
     let quad_share = |s: &Stage| {
@@ -544,7 +525,8 @@ fn late_splits(
         let disks = (0..p.n).all(|i| p.is_disk(i));
         (quads as f64 / p.n.max(1) as f64, disks, tiny, s, merges)
     };
-    let (before, _, tiny_before, ..) = quad_share(stage);
+    // The layout as it is, measured the same way (once, when there is a split to compare).
+    let mut current: Option<(f64, usize)> = None;
     let mut pins = VertexData::filled(mesh.n_vertices(), false);
     for e in mesh.edges() {
         if stage.seam[e] {
@@ -556,16 +538,19 @@ fn late_splits(
     // All the splits found at once; if that batch is not kept (one bad split spoils it), a
     // single split.
     for budget in [opts.max_splits, 1] {
-        let mut state = State::new(mesh, &stage.seam, &stage.singular, &stage.index, &scores, field_directions, chords);
-        let mut n = state.split_concave(&vf, trace, budget);
-        if n < budget {
-            n += state.split_to_quads(&vf, trace, budget - n);
-        }
+        let (seam, n) = on_stage(stage, dirs, chords, |state, _| {
+            let n = state.split_concave(&vf, trace, budget);
+            if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
+        });
         if n == 0 {
             break;
         }
+        let (before, tiny_before) = *current.get_or_insert_with(|| {
+            let (share, _, tiny, ..) = quad_share(stage);
+            (share, tiny)
+        });
         let mut alt = stage.clone();
-        alt.seam = state.seam;
+        alt.seam = seam;
         // The repair is optional: if straightening the new seams fails, they are dropped.
         match smooth_quiet(alt, &pins, opts) {
             Ok((alt, ok)) => {
@@ -587,15 +572,28 @@ fn late_splits(
 /// Merge patches below `min_patch_fraction` of the area into a neighbour, on a stage's own
 /// field and corners ([`State::merge_tiny`]); returns the merges.
 fn tiny_pass(stage: &mut Stage, dirs: &FaceData<Vec3>, chords: usize, opts: &LayoutOptions) -> usize {
-    let field_directions = final_field(stage, dirs);
-    let scores = vertex_scores(&stage.mesh);
     let min_area = opts.min_patch_fraction * stage.mesh.total_area();
-    let mut state =
-        State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field_directions, chords);
-    let m = state.merge_tiny(min_area, &field_directions, opts.drift_penalty, opts.max_deviation_deg.to_radians());
-    let seam = state.seam;
+    let (seam, m) = on_stage(stage, dirs, chords, |state, field| {
+        state.merge_tiny(min_area, field, opts.drift_penalty, opts.max_deviation_deg.to_radians())
+    });
     stage.seam = seam;
     m
+}
+
+/// Run `f` on the merge/split state of a (remeshed) stage, with the stage's own field
+/// ([`final_field`]) and corners counted between chords of `chords` edges; returns the seams
+/// `f` leaves and its result.
+fn on_stage<R>(
+    stage: &Stage,
+    dirs: &FaceData<Vec3>,
+    chords: usize,
+    f: impl FnOnce(&mut State<'_>, &FaceData<Vec3>) -> R,
+) -> (EdgeData<bool>, R) {
+    let field = final_field(stage, dirs);
+    let scores = vertex_scores(&stage.mesh);
+    let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field, chords);
+    let r = f(&mut state, &field);
+    (state.seam, r)
 }
 
 /// The field's arm on every face of a (remeshed) stage: its input face's, in its own plane.

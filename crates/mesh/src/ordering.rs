@@ -9,17 +9,16 @@
 //!
 //! The graph is split recursively by a plane normal to x, y or z, placed (among positions that
 //! leave at least 30% of the nodes on each side) where the one-sided vertex separator is
-//! smallest; the two halves are ordered first, the separator last. Below `leaf` nodes a part is ordered by AMD on its own subgraph. On a
-//! surface a plane meets the mesh in curves, so separators have O(√n) vertices and the
-//! factor's fill is O(n log n). Deterministic: ties break by index.
+//! smallest (ties: the most balanced); the two halves are ordered first, the separator last.
+//! Below `leaf` nodes a part is ordered by AMD on its own subgraph. On a surface a plane meets
+//! the mesh in curves, so separators have O(√n) vertices and the factor's fill is O(n log n).
+//! Deterministic: sorts break ties by index.
 //!
 //! Complexity: O(n log² n) for the splits (a sort per axis per level; every cut position's
 //! separator size from one sweep) plus the leaves' AMD.
 
 use crate::Vec3;
-use faer::Side;
-use faer::sparse::SymbolicSparseColMatRef;
-use faer::sparse::linalg::cholesky::{SymmetricOrdering, factorize_symbolic_cholesky};
+use crate::sparse::CholeskySolver;
 
 /// Node order (a permutation: `order[k]` is the k-th node eliminated) for the graph with the
 /// given undirected `edges` over nodes at `positions`.
@@ -95,8 +94,7 @@ impl Graph {
 /// Split `nodes` by a plane normal to x, y or z: (A, B, S) with no edge between A and B, S the
 /// nodes of B with a neighbour in A. Over the three axes and every plane position that leaves
 /// at least [`BALANCE`] of the nodes on each side, the one with the smallest separator (ties:
-/// the most balanced). None
-/// when no plane separates.
+/// the most balanced). None when no plane separates.
 fn bisect(
     g: &Graph,
     pos: &[Vec3],
@@ -180,7 +178,7 @@ fn bisect(
 /// Smallest share of a part's nodes on either side of a dissecting plane.
 const BALANCE: f64 = 0.3;
 
-/// AMD order of the subgraph induced by `nodes`.
+/// AMD order of the subgraph induced by `nodes` (their own order if AMD fails).
 fn amd_order(g: &Graph, nodes: &[usize], mark: &mut [usize], local: &mut [usize], stamp: &mut usize) -> Vec<usize> {
     let m = nodes.len();
     if m <= 2 {
@@ -193,34 +191,13 @@ fn amd_order(g: &Graph, nodes: &[usize], mark: &mut [usize], local: &mut [usize]
         mark[v] = s;
         local[v] = i;
     }
-    // Lower-triangular pattern (row ≥ column) with the diagonal, columns sorted.
-    let mut cols: Vec<Vec<usize>> = vec![Vec::new(); m];
-    for (i, &v) in nodes.iter().enumerate() {
-        cols[i].push(i);
-        for &u in g.neighbors(v) {
-            if mark[u] == s {
-                let j = local[u];
-                if j > i {
-                    cols[i].push(j);
-                }
-            }
-        }
-        cols[i].sort_unstable();
-        cols[i].dedup();
-    }
-    let mut col_ptr = Vec::with_capacity(m + 1);
-    let mut row_idx = Vec::new();
-    col_ptr.push(0);
-    for c in &cols {
-        row_idx.extend_from_slice(c);
-        col_ptr.push(row_idx.len());
-    }
-    let pattern = SymbolicSparseColMatRef::new_checked(m, m, &col_ptr, None, &row_idx);
-    match factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default()) {
-        Ok(sym) => match sym.perm() {
-            Some(p) => p.arrays().0.iter().map(|&k| nodes[k]).collect(),
-            None => nodes.to_vec(),
-        },
+    let (mark, local) = (&*mark, &*local);
+    let edges = nodes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &v)| g.neighbors(v).iter().filter(move |&&u| mark[u] == s).map(move |&u| (i, local[u])));
+    match CholeskySolver::amd_order(m, edges) {
+        Ok(order) => order.iter().map(|&k| nodes[k]).collect(),
         Err(_) => nodes.to_vec(),
     }
 }
@@ -229,13 +206,10 @@ fn amd_order(g: &Graph, nodes: &[usize], mark: &mut [usize], local: &mut [usize]
 mod tests {
     use super::*;
 
-    #[test]
-    fn orders_every_node_once_and_separates() {
-        // A 30 × 30 grid graph.
-        let (nx, ny) = (30, 30);
+    /// An nx × ny grid graph, rows `dy` apart, columns 1 apart: positions and edges.
+    fn grid_graph(nx: usize, ny: usize, dy: f64) -> (Vec<Vec3>, Vec<(usize, usize)>) {
         let id = |i: usize, j: usize| j * nx + i;
-        let positions: Vec<Vec3> =
-            (0..ny).flat_map(|j| (0..nx).map(move |i| Vec3::new(i as f64, j as f64, 0.0))).collect();
+        let positions = (0..ny).flat_map(|j| (0..nx).map(move |i| Vec3::new(i as f64, dy * j as f64, 0.0))).collect();
         let mut edges = Vec::new();
         for j in 0..ny {
             for i in 0..nx {
@@ -247,6 +221,13 @@ mod tests {
                 }
             }
         }
+        (positions, edges)
+    }
+
+    #[test]
+    fn orders_every_node_once_and_separates() {
+        let (nx, ny) = (30, 30);
+        let (positions, edges) = grid_graph(nx, ny, 1.0);
         let order = nested_dissection(&positions, &edges, 50);
         let mut seen = order.clone();
         seen.sort_unstable();
@@ -263,24 +244,11 @@ mod tests {
 
     #[test]
     fn factors_and_solves_a_block_system_in_its_order() {
-        use crate::sparse::{CholeskySolver, SymmetricPattern};
+        use crate::sparse::SymmetricPattern;
         // A 60 × 60 grid, 3 dofs per node: (graph Laplacian + 0.1 I) ⊗ I₃, through the
         // nested-dissection order expanded to the dofs, as the Newton solver uses it.
         let (nx, ny) = (60, 60);
-        let id = |i: usize, j: usize| j * nx + i;
-        let positions: Vec<Vec3> =
-            (0..ny).flat_map(|j| (0..nx).map(move |i| Vec3::new(i as f64, 0.3 * j as f64, 0.0))).collect();
-        let mut edges = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                if i + 1 < nx {
-                    edges.push((id(i, j), id(i + 1, j)));
-                }
-                if j + 1 < ny {
-                    edges.push((id(i, j), id(i, j + 1)));
-                }
-            }
-        }
+        let (positions, edges) = grid_graph(nx, ny, 0.3);
         let n = 3 * nx * ny;
         let dof_edges: Vec<(usize, usize)> =
             edges.iter().flat_map(|&(a, b)| (0..3).map(move |c| (3 * a + c, 3 * b + c))).collect();

@@ -155,15 +155,24 @@ impl CholeskySolver {
         node_entries: impl IntoIterator<Item = (usize, usize)>,
         dofs_of_node: &[Vec<usize>],
     ) -> Result<Vec<usize>, SolveError> {
+        let order = Self::amd_order(n_nodes, node_entries)?;
+        Ok(order.iter().flat_map(|&v| dofs_of_node[v].iter().copied()).collect())
+    }
+
+    /// AMD order (`order[k]` is the k-th node eliminated) of the `n_nodes`-node graph with the
+    /// given edges (either direction; duplicates and loops allowed).
+    pub fn amd_order(
+        n_nodes: usize,
+        node_entries: impl IntoIterator<Item = (usize, usize)>,
+    ) -> Result<Vec<usize>, SolveError> {
         let graph = SymmetricPattern::from_entries(n_nodes, node_entries);
         let sym =
             factorize_symbolic_cholesky(graph.symbolic(), Side::Lower, SymmetricOrdering::Amd, Default::default())
                 .map_err(|e| SolveError::Internal(format!("{e:?}")))?;
-        let order: Vec<usize> = match sym.perm() {
+        Ok(match sym.perm() {
             Some(p) => p.arrays().0.to_vec(),
             None => (0..n_nodes).collect(),
-        };
-        Ok(order.iter().flat_map(|&v| dofs_of_node[v].iter().copied()).collect())
+        })
     }
 
     /// Stored length of the factor (supernodal storage, including padding).

@@ -198,17 +198,11 @@ impl<'a> System<'a> {
     /// Fill-reducing ordering of the free dofs: AMD on the vertex graph, each vertex expanded
     /// to its free dofs.
     pub fn dof_ordering(&self) -> Result<Vec<usize>, clothcast_mesh::sparse::SolveError> {
-        let dofs: Vec<Vec<usize>> =
-            self.dof.iter().map(|d| d.iter().filter(|&&i| i != u32::MAX).map(|&i| i as usize).collect()).collect();
-        let edges: Vec<(usize, usize)> = self
-            .mesh
-            .edges()
-            .map(|e| {
-                let [a, b] = self.mesh.edge_vertices(e);
-                (a.idx(), b.idx())
-            })
-            .collect();
-        clothcast_mesh::sparse::CholeskySolver::node_ordering(self.mesh.n_vertices(), edges, &dofs)
+        clothcast_mesh::sparse::CholeskySolver::node_ordering(
+            self.mesh.n_vertices(),
+            self.node_edges(),
+            &self.node_dofs(),
+        )
     }
 
     /// A nested-dissection ordering of the dofs ([`clothcast_mesh::ordering`]), by the rest
@@ -217,17 +211,23 @@ impl<'a> System<'a> {
         if self.mesh.n_vertices() < ND_MIN_VERTICES {
             return None;
         }
-        let edges: Vec<(usize, usize)> = self
-            .mesh
-            .edges()
-            .map(|e| {
-                let [a, b] = self.mesh.edge_vertices(e);
-                (a.idx(), b.idx())
-            })
-            .collect();
-        let pos: Vec<Vec3> = self.mesh.vertices().map(|v| self.mesh.position(v)).collect();
-        let order = clothcast_mesh::ordering::nested_dissection(&pos, &edges, ND_LEAF);
-        Some(order.iter().flat_map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).map(|&i| i as usize)).collect())
+        let edges: Vec<(usize, usize)> = self.node_edges().collect();
+        let order = clothcast_mesh::ordering::nested_dissection(self.mesh.positions().as_slice(), &edges, ND_LEAF);
+        let dofs = self.node_dofs();
+        Some(order.iter().flat_map(|&v| dofs[v].iter().copied()).collect())
+    }
+
+    /// The mesh edges as vertex index pairs (the node graph of the dofs).
+    fn node_edges(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.mesh.edges().map(|e| {
+            let [a, b] = self.mesh.edge_vertices(e);
+            (a.idx(), b.idx())
+        })
+    }
+
+    /// The free dofs of every vertex, in order.
+    fn node_dofs(&self) -> Vec<Vec<usize>> {
+        self.dof.iter().map(|d| d.iter().filter(|&&i| i != u32::MAX).map(|&i| i as usize).collect()).collect()
     }
 
     /// Slots of the diagonal entries.
