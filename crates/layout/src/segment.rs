@@ -527,14 +527,7 @@ fn late_splits(
     };
     // The layout as it is, measured the same way (once, when there is a split to compare).
     let mut current: Option<(f64, usize)> = None;
-    let mut pins = VertexData::filled(mesh.n_vertices(), false);
-    for e in mesh.edges() {
-        if stage.seam[e] {
-            for v in mesh.edge_vertices(e) {
-                pins[v] = true;
-            }
-        }
-    }
+    let pins = network::seam_degree(mesh, &stage.seam).map(|&d| d > 0);
     // All the splits found at once; if that batch is not kept (one bad split spoils it), a
     // single split.
     for budget in [opts.max_splits, 1] {

@@ -114,17 +114,15 @@ fn bisect(
     for &v in nodes {
         mark[v] = s;
     }
-    // Best cut so far: (separator size, imbalance |2k − m|, axis, k).
-    let mut best: Option<(usize, usize, usize, usize)> = None;
-    let sort_along = |axis: usize| {
-        let mut sorted = nodes.to_vec();
-        sorted.sort_unstable_by(|&x, &y| pos[x][axis].total_cmp(&pos[y][axis]).then(x.cmp(&y)));
-        sorted
-    };
+    // Best cut so far: (separator size, imbalance |2k − m|, k), and the nodes sorted along its
+    // axis.
+    let mut best: Option<(usize, usize, usize)> = None;
+    let mut best_sorted: Vec<usize> = Vec::new();
     // (Oblique planes, the cube's face and body diagonals, were tried too: no smaller factor
     // on kitten, at three times the cost.)
     for axis in 0..3 {
-        let sorted = sort_along(axis);
+        let mut sorted = nodes.to_vec();
+        sorted.sort_unstable_by(|&x, &y| pos[x][axis].total_cmp(&pos[y][axis]).then(x.cmp(&y)));
         for (r, &v) in sorted.iter().enumerate() {
             rank[v] = r;
         }
@@ -141,17 +139,21 @@ fn bisect(
             }
         }
         let mut size = 0i64;
+        let mut improved = false;
         for (k, d) in diff.iter().enumerate().take(k_hi + 1) {
             size += d;
-            let cut = (size as usize, (2 * k).abs_diff(m), axis, k);
+            let cut = (size as usize, (2 * k).abs_diff(m), k);
             if k >= k_lo && best.is_none_or(|b| (cut.0, cut.1) < (b.0, b.1)) {
                 best = Some(cut);
+                improved = true;
             }
         }
+        if improved {
+            best_sorted = sorted;
+        }
     }
-    let (_, _, axis, k) = best?;
-    let sorted = sort_along(axis);
-    let (lo, hi) = sorted.split_at(k);
+    let (_, _, k) = best?;
+    let (lo, hi) = best_sorted.split_at(k);
     *stamp += 1;
     let sa = *stamp;
     for &v in lo {

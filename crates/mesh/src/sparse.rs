@@ -147,18 +147,6 @@ impl CholeskySolver {
         Ok(Self { symbolic: Arc::new(symbolic), par: Par::Seq })
     }
 
-    /// A fill-reducing ordering of a block system: AMD on the `n_nodes`-node graph given by
-    /// `node_entries`, each node then expanded to its degrees of freedom (`dofs_of_node`, in
-    /// order). Cheaper to compute and usually as good as AMD on the expanded pattern.
-    pub fn node_ordering(
-        n_nodes: usize,
-        node_entries: impl IntoIterator<Item = (usize, usize)>,
-        dofs_of_node: &[Vec<usize>],
-    ) -> Result<Vec<usize>, SolveError> {
-        let order = Self::amd_order(n_nodes, node_entries)?;
-        Ok(order.iter().flat_map(|&v| dofs_of_node[v].iter().copied()).collect())
-    }
-
     /// AMD order (`order[k]` is the k-th node eliminated) of the `n_nodes`-node graph with the
     /// given edges (either direction; duplicates and loops allowed).
     pub fn amd_order(
