@@ -113,7 +113,7 @@ pub struct LayoutSection {
     pub follow_streamlines: bool,
     /// Merge adjacent patches when the union is a developable quad.
     pub merge: bool,
-    /// Merges and corner splits again on the final, straightened seams.
+    /// Merges, corner splits and cusp repairs on the final, straightened seams.
     pub late_repairs: bool,
     /// Split patches whose developability score exceeds this (`inf`: never).
     pub max_developability: f64,

@@ -29,7 +29,10 @@
 //!    and no more Σ |corners − 4| in total;
 //!    then non-quads are split along the field from a concave corner or a corner, traced on
 //!    the final mesh, the new seams straightened with every old seam vertex pinned, kept when
-//!    the share of quads (after the tiny pass) rises. A last tiny pass follows.
+//!    the share of quads (after the tiny pass) rises; then cusps ([`State::zip_cusps`]: a
+//!    non-quad's thin spike between two seams that leave a junction along one field arm is
+//!    cut off across and handed to a neighbour), kept on the same terms. A last tiny pass
+//!    follows.
 //! 8. **Verify and report**: every patch must be a disk (else [`LayoutError::NotADisk`]); corners
 //!    per patch (counted in the field's quarter turns, see [`crate::patches::CornerRule`]),
 //!    quad fraction, singularities inside patches, seam length, seam–field deviation,
@@ -38,7 +41,8 @@
 //! Steps 3–5 run on the traced (jagged) seams, with corner angles measured between chords a few
 //! edges long, as the straightened seams will run. Straightening and remeshing run on the
 //! input mesh for the whole network in step 6 (for both networks, re-routed and not, when
-//! `follow_streamlines` is on), and in step 7 once per tried batch of late splits, on the
+//! `follow_streamlines` is on), and in step 7 once per tried batch of late splits or cusp
+//! repairs, on the
 //! final mesh: the pinned old seams are already mesh edges there, so only the new seams' faces
 //! are cut.
 //!
@@ -57,7 +61,8 @@ use crate::split::{field_aligned_split, spectral_split, two_sides};
 use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
 use crate::vertex_field::VertexField;
 use clothcast_field::{CrossField, Singularity};
-use clothcast_mesh::{EdgeData, EdgeId, FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
+use clothcast_mesh::geometry::shortest_edge_path;
+use clothcast_mesh::{EdgeData, EdgeId, FaceData, FaceId, HalfedgeId, Mesh, Vec3, VertexData, VertexId};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
@@ -81,7 +86,8 @@ pub struct LayoutOptions {
     pub follow_streamlines: bool,
     /// Merge adjacent patches into quads.
     pub merge: bool,
-    /// Step 7 (module doc): merges and corner splits on the final (straightened) seams.
+    /// Step 7 (module doc): merges, corner splits and cusp repairs on the final (straightened)
+    /// seams.
     pub late_repairs: bool,
     /// Largest patch developability score `∫ min(κ₁², κ₂²) dA` before a patch is split
     /// (infinite: never split).
@@ -168,6 +174,9 @@ pub struct SegmentationStats {
     pub merges: usize,
     /// Developability splits.
     pub splits: usize,
+    /// Cusps repaired on the final seams (a patch's thin spike between two seams leaving a
+    /// junction along one field arm, given to a neighbour; see `late_repairs`).
+    pub cusp_repairs: usize,
     /// Separatrices traced (T-junctions among them) and failed.
     pub separatrices: usize,
     /// Separatrices ending in a T-junction.
@@ -391,15 +400,29 @@ pub fn segment(
             merged = m;
             stats.merges += merged;
         }
-        let mut split = 0;
+        let (mut split, mut zipped) = (0, 0);
         if stats.straightened {
             let (late_stage, n, m) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts);
             stage = late_stage;
             split = n;
             stats.splits += n;
             stats.merges += m;
+            // Cusp repairs: cuts along the field first, then the smallest spikes.
+            let (mut late_stage, mut n, mut m) = (stage.clone(), 0, 0);
+            for aligned in [true, false] {
+                (late_stage, n, m) = late_repair(&stage, &dirs, final_chords, opts, "cusps", true, |state, budget| {
+                    state.zip_cusps(budget, aligned)
+                });
+                if n > 0 {
+                    break;
+                }
+            }
+            stage = late_stage;
+            zipped = n;
+            stats.cusp_repairs += n;
+            stats.merges += m;
         }
-        if merged + split == 0 {
+        if merged + split + zipped == 0 {
             break;
         }
     }
@@ -511,11 +534,8 @@ pub fn segment(
 
 /// Concave and corner splits ([`State::split_concave`], [`State::split_to_quads`]) on the
 /// final, straightened seams, where corners are counted as reported: the new seams are traced
-/// on the final mesh and straightened with every existing seam vertex pinned (the other seams
-/// stay as they are). Kept when the straightened result, after the tiny pass, has a larger share
-/// of quads, only disks and no more tiny patches than before; all the splits found are tried
-/// together, then (if that is not kept) a single one. Returns the stage to use, the splits
-/// kept and the tiny merges they brought.
+/// on the final mesh ([`late_repair`]). Returns the stage to use, the splits kept and the tiny
+/// merges they brought.
 fn late_splits(
     stage: &Stage,
     dirs: &FaceData<Vec3>,
@@ -528,8 +548,31 @@ fn late_splits(
     let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
     let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
     let vf = VertexField::from_face_field(mesh, &cross);
-    // Measured after the tiny pass that follows (a split may cut off a sliver that then merges
-    // into another neighbour): share of quads, all disks, tiny patches left.
+    late_repair(stage, dirs, chords, opts, "late splits", false, |state, budget| {
+        let n = state.split_concave(&vf, trace, budget);
+        if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
+    })
+}
+
+/// A repair of the final, straightened seams: `propose` changes the seams of the merge/split
+/// state (at most `budget` changes; returns how many), the new seams are straightened with
+/// every existing seam vertex pinned (the other seams stay as they are), and the result is kept
+/// when, after the tiny pass, it has a larger share of quads, only disks and no more tiny
+/// patches than before; all the changes found are tried together, then (if that is not kept)
+/// a single one. With `tiny_first`, `propose` works on the stage after the tiny pass (the
+/// neighbours a repair hands faces to are then those of the final layout). Returns the stage
+/// to use, the changes kept and the tiny merges they brought.
+fn late_repair(
+    stage: &Stage,
+    dirs: &FaceData<Vec3>,
+    chords: usize,
+    opts: &LayoutOptions,
+    what: &str,
+    tiny_first: bool,
+    propose: impl Fn(&mut State<'_>, usize) -> usize,
+) -> (Stage, usize, usize) {
+    // Measured after the tiny pass that follows (a change may cut off a sliver that then
+    // merges into another neighbour): share of quads, all disks, tiny patches left.
     let quad_share = |s: &Stage| {
         let mut s = s.clone();
         let merges = tiny_pass(&mut s, dirs, chords, opts);
@@ -542,21 +585,26 @@ fn late_splits(
         let disks = (0..p.n).all(|i| p.is_disk(i));
         (quads as f64 / p.n.max(1) as f64, disks, tiny, s, merges)
     };
-    // The layout as it is, measured the same way (once, when there is a split to compare).
+    // The layout as it is, measured the same way (once, when there is a change to compare).
     let mut current: Option<(f64, usize)> = None;
-    let pins = network::seam_degree(mesh, &stage.seam).map(|&d| d > 0);
-    // All the splits found at once; if that batch is not kept (one bad split spoils it), a
-    // single split.
+    let orig = stage;
+    let passed;
+    let stage = if tiny_first {
+        let mut s = stage.clone();
+        tiny_pass(&mut s, dirs, chords, opts);
+        passed = s;
+        &passed
+    } else {
+        orig
+    };
+    let pins = network::seam_degree(&stage.mesh, &stage.seam).map(|&d| d > 0);
     for budget in [opts.max_splits, 1] {
-        let (seam, n) = on_stage(stage, dirs, chords, |state, _| {
-            let n = state.split_concave(&vf, trace, budget);
-            if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
-        });
+        let (seam, n) = on_stage(stage, dirs, chords, |state, _| propose(state, budget));
         if n == 0 {
             break;
         }
         let (before, tiny_before) = *current.get_or_insert_with(|| {
-            let (share, _, tiny, ..) = quad_share(stage);
+            let (share, _, tiny, ..) = quad_share(orig);
             (share, tiny)
         });
         let mut alt = stage.clone();
@@ -565,18 +613,18 @@ fn late_splits(
         match smooth_quiet(alt, &pins, opts) {
             Ok((alt, ok)) => {
                 let (after, disks, tiny, alt, merges) = quad_share(&alt);
-                tracing::debug!(splits = n, merges, ok, before, after, disks, tiny, "late splits");
+                tracing::debug!(what, changes = n, merges, ok, before, after, disks, tiny, "late repair");
                 if ok && disks && tiny <= tiny_before && after > before {
                     return (alt, n, merges);
                 }
             }
-            Err(e) => tracing::debug!(splits = n, error = %e, "late splits dropped: straightening failed"),
+            Err(e) => tracing::debug!(what, changes = n, error = %e, "late repair dropped: straightening failed"),
         }
         if n == 1 {
             break;
         }
     }
-    (stage.clone(), 0, 0)
+    (orig.clone(), 0, 0)
 }
 
 /// Merge patches below `min_patch_fraction` of the area into a neighbour, on a stage's own
@@ -713,6 +761,15 @@ fn smooth_quiet(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> 
     tracing::debug!(patches = before.n, "straightened seams would change the patches");
     Ok((stage, false))
 }
+
+/// A patch angle below this many quarter turns is a cusp ([`State::zip_cusps`]).
+const CUSP_QUARTERS: f64 = 0.5;
+
+/// Cut positions tried along each side of a cusp ([`State::zip_cusps`]).
+const ZIP_SAMPLES: usize = 12;
+
+/// Narrowest cut across a cusp's spike, in mean edge lengths ([`State::zip_cusps`]).
+const ZIP_MIN_WIDTH: f64 = 2.0;
 
 /// A patch angle of at least this many quarter turns is a concave corner.
 const CONCAVE_QUARTERS: f64 = 2.5;
@@ -855,7 +912,12 @@ struct State<'a> {
     vertex_areas: VertexData<f64>,
     rule: CornerRule,
     degree: VertexData<u32>,
+    mean_edge: f64,
 }
+
+/// A cusp repair ([`State::zip_cusps`]): the spike's faces, the patch that receives them and
+/// the cut edges.
+type Zip = (Vec<FaceId>, u32, BTreeSet<EdgeId>);
 
 /// A candidate merge: patches `a` and `b` (equal for removing a dangling seam) and the edges
 /// to remove.
@@ -893,6 +955,7 @@ impl<'a> State<'a> {
             vertex_areas,
             rule: CornerRule::new(mesh, index).with_chords(chords).with_field(field.clone()),
             degree: network::seam_degree(mesh, seam),
+            mean_edge: mesh.mean_edge_length(),
         }
     }
 
@@ -1138,9 +1201,30 @@ impl<'a> State<'a> {
         max_splits: usize,
         starts: impl Fn(&RegionInfo) -> Vec<VertexId>,
     ) -> usize {
-        let mut splits = 0;
+        self.repair_non_quads(max_splits, starts, |state, p, v, bad| {
+            match state.best_corner_split(p, v, bad, vf, trace) {
+                Some((a, b)) => {
+                    state.apply_split(p, a, b);
+                    true
+                }
+                None => false,
+            }
+        })
+    }
+
+    /// Repairs of non-quad patches, one at a time until none is found or `max` are made: for
+    /// each patch that is not a quad (Σ |corners − 4| = `bad` > 0) and each boundary vertex
+    /// `starts` picks from its [`RegionInfo`], `repair(self, p, v, bad)` makes one (true) or
+    /// not (false: that patch and vertex are not tried again). Returns the repairs made.
+    fn repair_non_quads(
+        &mut self,
+        max: usize,
+        starts: impl Fn(&RegionInfo) -> Vec<VertexId>,
+        mut repair: impl FnMut(&mut Self, u32, VertexId, usize) -> bool,
+    ) -> usize {
+        let mut done = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
-        'outer: while splits < max_splits {
+        'outer: while done < max {
             for p in 0..self.faces.len() as u32 {
                 if self.faces[p as usize].is_empty() {
                     continue;
@@ -1154,9 +1238,8 @@ impl<'a> State<'a> {
                     if failed.contains(&(p, v)) {
                         continue;
                     }
-                    if let Some((a, b)) = self.best_corner_split(p, v, bad, vf, trace) {
-                        self.apply_split(p, a, b);
-                        splits += 1;
+                    if repair(self, p, v, bad) {
+                        done += 1;
                         continue 'outer;
                     }
                     failed.insert((p, v));
@@ -1164,7 +1247,245 @@ impl<'a> State<'a> {
             }
             break;
         }
-        splits
+        done
+    }
+
+    /// Repair cusps: where a non-quad patch `p` has a wedge of (almost) zero quarter turns at an
+    /// interior junction — two seams leaving along the same field arm, a thin spike of `p`
+    /// between them — cut the spike off across, from a vertex of one of the two seams to a
+    /// vertex of the other (up to and including their next nodes), and give it to the patch
+    /// across one of them, so that those two seams become one. A repair is kept when
+    /// Σ |corners − 4| over the patches around drops, all stay disks, no singularity loses its
+    /// last seam and the spike is at most half of `p`; the cut is a shortest path through `p`'s
+    /// interior (the straightening then makes it a geodesic). Of the cuts with the largest
+    /// drop, `aligned` takes the one closest to the field (at least [`ZIP_MIN_WIDTH`] edges
+    /// long), else the one with the smallest spike. Returns the repairs, at most `max`.
+    fn zip_cusps(&mut self, max: usize, aligned: bool) -> usize {
+        let mesh = self.mesh;
+        let cusps = |info: &RegionInfo| {
+            let cusp = |&&(v, q): &&(VertexId, f64)| q < CUSP_QUARTERS && !mesh.is_boundary_vertex(v);
+            info.candidates.iter().filter(cusp).map(|&(v, _)| v).collect()
+        };
+        self.repair_non_quads(max, cusps, |state, p, v, _| match state.best_zip(p, v, aligned) {
+            Some((spike, to, cut)) => {
+                state.apply_zip(p, to, &spike, &cut);
+                true
+            }
+            None => false,
+        })
+    }
+
+    /// Is edge `e` a cut under the current labels and seams?
+    fn is_cut(&self, e: EdgeId) -> bool {
+        match self.mesh.edge_faces(e) {
+            (_, None) => true,
+            (a, Some(b)) => self.seam[e] || self.label[a] != self.label[b],
+        }
+    }
+
+    /// The best cusp repair of patch `p` at `v` ([`Self::zip_cusps`]): the spike's faces, the
+    /// patch that receives them and the cut edges.
+    fn best_zip(&self, p: u32, v: VertexId, aligned: bool) -> Option<Zip> {
+        let mesh = self.mesh;
+        let angles = &self.rule.angles;
+        let in_p = |f: FaceId| self.label[f] == p;
+        // The wedge of p at v with the smallest angle: incoming boundary halfedge h (p on its
+        // left), outgoing g.
+        let mut wedge: Option<(f64, HalfedgeId, HalfedgeId)> = None;
+        for h0 in mesh.outgoing(v) {
+            let Some(h) = mesh.twin(h0).filter(|&h| in_p(mesh.face(h))) else { continue };
+            if !self.is_cut(mesh.edge(h)) {
+                continue;
+            }
+            let mut g = mesh.next(h);
+            let mut angle = angles[g];
+            while !self.is_cut(mesh.edge(g)) {
+                g = mesh.next(mesh.twin(g)?);
+                angle += angles[g];
+            }
+            if wedge.is_none_or(|(a, _, _)| angle < a) {
+                wedge = Some((angle, h, g));
+            }
+        }
+        let (_, h, g) = wedge?;
+        let distinct = |u: VertexId| {
+            let mut ls: Vec<u32> = mesh.vertex_faces(u).map(|f| self.label[f]).collect();
+            ls.sort_unstable();
+            ls.dedup();
+            ls.len()
+        };
+        let is_node = |u: VertexId| self.singular[u] || mesh.is_boundary_vertex(u) || distinct(u) >= 3;
+        // The two arms as vertex lists from v to their next node: along p's boundary backwards
+        // from h, forwards from g.
+        let arm = |start: HalfedgeId, forward: bool| -> Option<Vec<VertexId>> {
+            let mut out = vec![v];
+            let mut k = start;
+            loop {
+                let u = if forward { mesh.head(k) } else { mesh.tail(k) };
+                out.push(u);
+                if is_node(u) || out.len() > mesh.n_vertices() {
+                    return Some(out);
+                }
+                let step = |x: HalfedgeId| if forward { mesh.next(x) } else { mesh.prev(x) };
+                k = step(k);
+                while !self.is_cut(mesh.edge(k)) {
+                    k = step(mesh.twin(k)?);
+                }
+            }
+        };
+        let (arm_a, arm_b) = (arm(h, false)?, arm(g, true)?);
+        let across = |k: HalfedgeId| mesh.twin(k).map(|t| self.label[mesh.face(t)]);
+        let (qa, qb) = (across(h), across(g));
+        let spike_face = mesh.face(g);
+        // Vertices a cut may pass: all faces in p, on no cut edge.
+        let interior = |u: VertexId| mesh.outgoing(u).all(|k| in_p(mesh.face(k)) && !self.is_cut(mesh.edge(k)));
+        let pos = |u: VertexId| mesh.position(u);
+        let nearest = |u: VertexId, arm: &[VertexId]| {
+            arm[1..].iter().copied().min_by(|x, y| (pos(*x) - pos(u)).norm().total_cmp(&(pos(*y) - pos(u)).norm()))
+        };
+        let mut pairs: BTreeSet<(VertexId, VertexId)> = BTreeSet::new();
+        let sample =
+            |n: usize| -> Vec<usize> { (1..n).step_by(((n - 1) / ZIP_SAMPLES).max(1)).chain([n - 1]).collect() };
+        for i in sample(arm_a.len()) {
+            pairs.extend(nearest(arm_a[i], &arm_b).map(|b| (arm_a[i], b)));
+        }
+        for j in sample(arm_b.len()) {
+            pairs.extend(nearest(arm_b[j], &arm_a).map(|a| (a, arm_b[j])));
+        }
+        pairs.insert((*arm_a.last()?, *arm_b.last()?));
+        let faces = &self.faces[p as usize];
+        let mut bad_now: BTreeMap<u32, usize> = BTreeMap::new();
+        // (drop of Σ |corners − 4|, tie-break key, the repair)
+        let mut best: Option<(usize, f64, Zip)> = None;
+        let min_width = if aligned { ZIP_MIN_WIDTH * self.mean_edge } else { 0.0 };
+        let field = self.rule.field.as_ref()?;
+        for (a, b) in pairs {
+            if a == b || (pos(a) - pos(b)).norm() < min_width {
+                continue;
+            }
+            let Some(path) = shortest_edge_path(mesh, a, b, &interior) else { continue };
+            // The cut's deviation from the field: its chord against the arms of the faces
+            // along it (mean).
+            let chord = pos(b) - pos(a);
+            let along: BTreeSet<FaceId> =
+                path.iter().flat_map(|&u| mesh.vertex_faces(u)).filter(|&f| in_p(f)).collect();
+            let deviation = along
+                .iter()
+                .map(|&f| {
+                    let n = mesh.face_normal(f);
+                    let t = (chord - n * n.dot(&chord)).normalize();
+                    let (x, y) = (field[f], n.cross(&field[f]));
+                    x.dot(&t).abs().max(y.dot(&t).abs()).clamp(0.0, 1.0).acos()
+                })
+                .sum::<f64>()
+                / along.len().max(1) as f64;
+            let cut: BTreeSet<EdgeId> = path.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
+            let Some((s1, s2)) = self.two_sides(faces, &cut) else { continue };
+            let (spike, rest) = if s1.binary_search(&spike_face).is_ok() { (s1, s2) } else { (s2, s1) };
+            let spike_area: f64 = spike.iter().map(|&f| mesh.face_area(f)).sum();
+            let p_area: f64 = faces.iter().map(|&f| mesh.face_area(f)).sum();
+            if spike_area > 0.5 * p_area {
+                continue;
+            }
+            for to in [qa, qb].into_iter().flatten() {
+                if to == p {
+                    continue;
+                }
+                let label = |f: FaceId| if spike.binary_search(&f).is_ok() { to } else { self.label[f] };
+                let seam_after = |e: EdgeId| match mesh.edge_faces(e) {
+                    (_, None) => true,
+                    (f0, Some(f1)) => (self.seam[e] || cut.contains(&e)) && label(f0) != label(f1),
+                };
+                // No singularity may lose its last seam edge (the seams between the spike and
+                // `to` go away, the cut comes in).
+                let mut degree: BTreeMap<VertexId, i64> = BTreeMap::new();
+                for e in spike.iter().flat_map(|&f| (0..3).map(move |k| mesh.edge(mesh.face_halfedge(f, k)))) {
+                    let (f0, f1) = mesh.edge_faces(e);
+                    let removed =
+                        self.seam[e] && f1.is_some_and(|f1| label(f0) == label(f1) && self.label[f0] != self.label[f1]);
+                    for u in mesh.edge_vertices(e).into_iter().filter(|&u| removed && self.singular[u]) {
+                        *degree.entry(u).or_insert(i64::from(self.degree[u])) -= 1;
+                    }
+                }
+                for u in cut.iter().flat_map(|&e| mesh.edge_vertices(e)).filter(|&u| self.singular[u]) {
+                    *degree.entry(u).or_insert(i64::from(self.degree[u])) += 1;
+                }
+                if degree.iter().any(|(&u, &d)| d <= 0 && !mesh.is_boundary_vertex(u)) {
+                    continue;
+                }
+                let mut grown = self.faces[to as usize].clone();
+                grown.extend_from_slice(&spike);
+                grown.sort_unstable();
+                let around: BTreeSet<u32> = [v, a, b]
+                    .iter()
+                    .flat_map(|&u| mesh.vertex_faces(u))
+                    .map(|f| self.label[f])
+                    .chain([p, to])
+                    .collect();
+                let (mut before, mut after) = (0, 0);
+                let mut valid = true;
+                for &r in &around {
+                    before += *bad_now.entry(r).or_insert_with(|| self.info_of(r).corners.len().abs_diff(4));
+                    let fr: &[FaceId] = if r == p {
+                        &rest
+                    } else if r == to {
+                        &grown
+                    } else {
+                        &self.faces[r as usize]
+                    };
+                    let info = region_info(mesh, fr, &label, &seam_after, &self.rule);
+                    valid &= info.is_disk();
+                    after += info.corners.len().abs_diff(4);
+                }
+                if !valid || after >= before {
+                    continue;
+                }
+                let gain = before - after;
+                let key = if aligned { deviation } else { spike_area };
+                if best.as_ref().is_none_or(|(bg, bk, _)| gain > *bg || (gain == *bg && key < *bk)) {
+                    best = Some((gain, key, (spike.clone(), to, cut.clone())));
+                }
+            }
+        }
+        best.map(|(_, _, zip)| zip)
+    }
+
+    /// Give the `spike` faces of `p` to patch `to`, the `cut` edges becoming seams and the
+    /// seams between the spike and `to` going away.
+    fn apply_zip(&mut self, p: u32, to: u32, spike: &[FaceId], cut: &BTreeSet<EdgeId>) {
+        let mesh = self.mesh;
+        let in_spike = |f: FaceId| spike.binary_search(&f).is_ok();
+        let after = |f: FaceId| if in_spike(f) { to } else { self.label[f] };
+        let mut touched: BTreeSet<EdgeId> = cut.clone();
+        touched.extend(spike.iter().flat_map(|&f| (0..3).map(move |k| mesh.edge(mesh.face_halfedge(f, k)))));
+        // An edge is a seam where the labels differ; a slit (a seam between faces of one patch,
+        // before and after) stays as it was.
+        let changes: Vec<(EdgeId, bool)> = touched
+            .into_iter()
+            .filter_map(|e| {
+                let (f0, f1) = mesh.edge_faces(e);
+                let f1 = f1?;
+                let slit = self.label[f0] == self.label[f1] && after(f0) == after(f1) && !cut.contains(&e);
+                let want = if slit { self.seam[e] } else { after(f0) != after(f1) };
+                (want != self.seam[e]).then_some((e, want))
+            })
+            .collect();
+        for (e, want) in changes {
+            self.seam[e] = want;
+            for u in mesh.edge_vertices(e) {
+                if want {
+                    self.degree[u] += 1;
+                } else {
+                    self.degree[u] -= 1;
+                }
+            }
+        }
+        for &f in spike {
+            self.label[f] = to;
+        }
+        self.faces[p as usize].retain(|f| !in_spike(*f));
+        self.faces[to as usize].extend_from_slice(spike);
+        self.faces[to as usize].sort_unstable();
     }
 
     /// Topology and corners of patch `p` under the current labels and seams.
@@ -1520,6 +1841,43 @@ mod tests {
         assert_eq!(corners_at(&state, 1.5, 1.5).0, a2, "A and C merged");
         assert_eq!(ca2, 4);
         assert_eq!(corners_at(&state, 2.5, 1.0), (d, 4), "D keeps its four corners");
+    }
+
+    #[test]
+    fn cusp_repair_hands_a_thin_spike_to_a_neighbour() {
+        // P: a block on the right (x > 2.25) with a spike one cell thin (1 < y < 1.25) reaching
+        // left to (1, 1), its tip a cusp between Q (below) and R (above): P has five corners.
+        let (mesh, seam, dirs) = flat_layout(|x, y| {
+            if x > 2.25 || (y > 1.0 && y < 1.25 && x > 1.0 && y - 1.0 < x - 1.0) {
+                0
+            } else if y < 1.0 {
+                1
+            } else {
+                2
+            }
+        });
+        let n = mesh.n_vertices();
+        let (singular, index) = (VertexData::filled(n, false), VertexData::filled(n, 0));
+        let scores = vertex_scores(&mesh);
+        let live =
+            |s: &State<'_>| (0..s.faces.len() as u32).filter(|&l| !s.faces[l as usize].is_empty()).collect::<Vec<_>>();
+        let quads = |s: &State<'_>| live(s).into_iter().filter(|&l| s.info_of(l).corners.len() == 4).count();
+        for aligned in [true, false] {
+            let mut state = State::new(&mesh, &seam, &singular, &index, &scores, &dirs, FINAL_CHORD_STEPS);
+            let (p, cp) = corners_at(&state, 2.6, 1.0);
+            assert_eq!(cp, 5);
+            assert!(state.info_of(p).candidates.iter().any(|&(_, q)| q < CUSP_QUARTERS), "the tip is a cusp");
+            let before = quads(&state);
+            assert_eq!(state.zip_cusps(4, aligned), 1);
+            assert!(quads(&state) > before);
+            assert_eq!(corners_at(&state, 2.6, 1.0), (p, 4), "P is a quad");
+            assert!(corners_at(&state, 1.2, 1.1).0 != p, "the spike's tip went to a neighbour");
+            // Labels and seams agree: the same patches, all disks.
+            let cut = patches(&mesh, &state.seam);
+            assert_eq!(cut.n, live(&state).len());
+            assert!((0..cut.n).all(|i| cut.is_disk(i)));
+            assert!(live(&state).iter().all(|&l| state.info_of(l).is_disk()));
+        }
     }
 
     #[test]
