@@ -55,8 +55,10 @@ pub struct Rerouted {
     /// Chains re-routed.
     pub chains: usize,
     /// The input mesh with the pins that fall inside edges inserted as vertices, so that each
-    /// lies exactly on its streamline (None: no pin needed it; `seam` and `pins` are then on
-    /// the input mesh).
+    /// lies exactly on its streamline (None: no pin fell inside an edge, or inserting them
+    /// failed and nearest-vertex pins were used; `seam` and `pins` are then on the input mesh).
+    /// Every planned pin is inserted, also those of chains whose re-route is then refused: a
+    /// few split edges more than needed (four triangles for two each).
     pub refined: Option<Remeshed>,
 }
 

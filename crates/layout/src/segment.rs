@@ -589,9 +589,10 @@ fn late_repair(
     let mut current: Option<(f64, usize)> = None;
     let orig = stage;
     let passed;
+    let mut first_merges = 0;
     let stage = if tiny_first {
         let mut s = stage.clone();
-        tiny_pass(&mut s, dirs, chords, opts);
+        first_merges = tiny_pass(&mut s, dirs, chords, opts);
         passed = s;
         &passed
     } else {
@@ -615,7 +616,7 @@ fn late_repair(
                 let (after, disks, tiny, alt, merges) = quad_share(&alt);
                 tracing::debug!(what, changes = n, merges, ok, before, after, disks, tiny, "late repair");
                 if ok && disks && tiny <= tiny_before && after > before {
-                    return (alt, n, merges);
+                    return (alt, n, first_merges + merges);
                 }
             }
             Err(e) => tracing::debug!(what, changes = n, error = %e, "late repair dropped: straightening failed"),
@@ -1258,8 +1259,9 @@ impl<'a> State<'a> {
     /// Σ |corners − 4| over the patches around drops, all stay disks, no singularity loses its
     /// last seam and the spike is at most half of `p`; the cut is a shortest path through `p`'s
     /// interior (the straightening then makes it a geodesic). Of the cuts with the largest
-    /// drop, `aligned` takes the one closest to the field (at least [`ZIP_MIN_WIDTH`] edges
-    /// long), else the one with the smallest spike. Returns the repairs, at most `max`.
+    /// drop, `aligned` takes the one closest to the field (its ends at least [`ZIP_MIN_WIDTH`]
+    /// mean edge lengths apart), else the one with the smallest spike. Returns the repairs, at most
+    /// `max`.
     fn zip_cusps(&mut self, max: usize, aligned: bool) -> usize {
         let mesh = self.mesh;
         let cusps = |info: &RegionInfo| {
@@ -1273,6 +1275,19 @@ impl<'a> State<'a> {
             }
             None => false,
         })
+    }
+
+    /// Whether edge `e` is a seam once the faces are relabelled by `after` and the `cut` edges
+    /// added: where the two labels differ (a mesh-boundary edge always); a slit (a seam between
+    /// faces of one patch, before and after) stays as it is.
+    fn seam_after(&self, e: EdgeId, after: &impl Fn(FaceId) -> u32, cut: &BTreeSet<EdgeId>) -> bool {
+        match self.mesh.edge_faces(e) {
+            (_, None) => true,
+            (f0, Some(f1)) => {
+                let slit = self.label[f0] == self.label[f1] && after(f0) == after(f1) && !cut.contains(&e);
+                if slit { self.seam[e] } else { after(f0) != after(f1) }
+            }
+        }
     }
 
     /// Is edge `e` a cut under the current labels and seams?
@@ -1323,7 +1338,11 @@ impl<'a> State<'a> {
             loop {
                 let u = if forward { mesh.head(k) } else { mesh.tail(k) };
                 out.push(u);
-                if is_node(u) || out.len() > mesh.n_vertices() {
+                if u == v {
+                    // Around the whole patch without meeting a node.
+                    return None;
+                }
+                if is_node(u) {
                     return Some(out);
                 }
                 let step = |x: HalfedgeId| if forward { mesh.next(x) } else { mesh.prev(x) };
@@ -1369,16 +1388,17 @@ impl<'a> State<'a> {
             let chord = pos(b) - pos(a);
             let along: BTreeSet<FaceId> =
                 path.iter().flat_map(|&u| mesh.vertex_faces(u)).filter(|&f| in_p(f)).collect();
-            let deviation = along
+            let angles: Vec<f64> = along
                 .iter()
-                .map(|&f| {
+                .filter_map(|&f| {
                     let n = mesh.face_normal(f);
-                    let t = (chord - n * n.dot(&chord)).normalize();
+                    let t = chord - n * n.dot(&chord);
+                    let t = (t.norm() > 1e-12 * chord.norm()).then(|| t.normalize())?;
                     let (x, y) = (field[f], n.cross(&field[f]));
-                    x.dot(&t).abs().max(y.dot(&t).abs()).clamp(0.0, 1.0).acos()
+                    Some(x.dot(&t).abs().max(y.dot(&t).abs()).clamp(0.0, 1.0).acos())
                 })
-                .sum::<f64>()
-                / along.len().max(1) as f64;
+                .collect();
+            let deviation = angles.iter().sum::<f64>() / angles.len().max(1) as f64;
             let cut: BTreeSet<EdgeId> = path.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
             let Some((s1, s2)) = self.two_sides(faces, &cut) else { continue };
             let (spike, rest) = if s1.binary_search(&spike_face).is_ok() { (s1, s2) } else { (s2, s1) };
@@ -1392,10 +1412,7 @@ impl<'a> State<'a> {
                     continue;
                 }
                 let label = |f: FaceId| if spike.binary_search(&f).is_ok() { to } else { self.label[f] };
-                let seam_after = |e: EdgeId| match mesh.edge_faces(e) {
-                    (_, None) => true,
-                    (f0, Some(f1)) => (self.seam[e] || cut.contains(&e)) && label(f0) != label(f1),
-                };
+                let seam_after = |e: EdgeId| self.seam_after(e, &label, &cut);
                 // No singularity may lose its last seam edge (the seams between the spike and
                 // `to` go away, the cut comes in).
                 let mut degree: BTreeMap<VertexId, i64> = BTreeMap::new();
@@ -1458,15 +1475,11 @@ impl<'a> State<'a> {
         let after = |f: FaceId| if in_spike(f) { to } else { self.label[f] };
         let mut touched: BTreeSet<EdgeId> = cut.clone();
         touched.extend(spike.iter().flat_map(|&f| (0..3).map(move |k| mesh.edge(mesh.face_halfedge(f, k)))));
-        // An edge is a seam where the labels differ; a slit (a seam between faces of one patch,
-        // before and after) stays as it was.
         let changes: Vec<(EdgeId, bool)> = touched
             .into_iter()
+            .filter(|&e| !mesh.is_boundary_edge(e))
             .filter_map(|e| {
-                let (f0, f1) = mesh.edge_faces(e);
-                let f1 = f1?;
-                let slit = self.label[f0] == self.label[f1] && after(f0) == after(f1) && !cut.contains(&e);
-                let want = if slit { self.seam[e] } else { after(f0) != after(f1) };
+                let want = self.seam_after(e, &after, cut);
                 (want != self.seam[e]).then_some((e, want))
             })
             .collect();
