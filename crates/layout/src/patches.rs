@@ -155,6 +155,15 @@ impl RegionInfo {
     }
 }
 
+/// Whether edge `e` separates regions under a labelling: a mesh-boundary edge, a `seam`, or an
+/// edge whose two faces have different labels.
+pub fn is_cut_edge(mesh: &Mesh, e: EdgeId, label: &impl Fn(FaceId) -> u32, seam: &impl Fn(EdgeId) -> bool) -> bool {
+    match mesh.edge_faces(e) {
+        (_, None) => true,
+        (a, Some(b)) => seam(e) || label(a) != label(b),
+    }
+}
+
 /// Topology of the region `faces` (sorted, all with the same label) under a labelling of the
 /// whole mesh: an edge is a cut when it is a mesh boundary, a `seam`, or its two faces have
 /// different labels. O(|faces| log |faces|).
@@ -168,13 +177,7 @@ pub fn region_info(
     let angles = &rule.angles;
     debug_assert!(faces.windows(2).all(|w| w[0] < w[1]), "faces must be sorted");
     let local = |f: FaceId| faces.binary_search(&f).ok();
-    let cut_edge = |e: EdgeId| -> bool {
-        match mesh.edge_faces(e) {
-            (_, None) => true,
-            (a, Some(b)) => seam(e) || label(a) != label(b),
-        }
-    };
-    let is_cut = |h: HalfedgeId| cut_edge(mesh.edge(h));
+    let is_cut = |h: HalfedgeId| is_cut_edge(mesh, mesh.edge(h), label, seam);
     // Wedges: corners joined across non-cut edges.
     let mut uf = UnionFind::new(3 * faces.len());
     let mut edges_inner = 0i64;

@@ -78,6 +78,14 @@ pub struct Remeshed {
     pub paths: Vec<Vec<VertexId>>,
 }
 
+impl Remeshed {
+    /// Per-vertex data carried over to the new mesh: input vertices keep theirs, inserted ones
+    /// get `fill`.
+    pub fn carry<T: Clone>(&self, data: &VertexData<T>, fill: T) -> VertexData<T> {
+        self.vertex_input.map(|v| v.map_or_else(|| fill.clone(), |v| data[v].clone()))
+    }
+}
+
 fn invalid(path: usize, reason: impl Into<String>) -> LayoutError {
     LayoutError::InvalidPath { path, reason: reason.into() }
 }

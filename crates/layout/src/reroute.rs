@@ -98,33 +98,29 @@ pub fn reroute(
         c.len() >= 4 && !skip(c) && chain_deviation(mesh, c, dirs) <= MAX_CHAIN_DEVIATION_DEG.to_radians()
     };
     // 1. Every chain's pins, planned on the input mesh (an edge carries one pin at most).
-    let plan = |snap: f64| {
+    let plan = |snap: f64| -> Vec<(usize, Vec<SurfacePoint>)> {
         let mut taken: BTreeSet<EdgeId> = BTreeSet::new();
-        let plans: Vec<(usize, Vec<SurfacePoint>)> = (0..chains.len())
+        (0..chains.len())
             .filter(|&i| eligible(&chains[i]))
             .filter_map(|i| {
                 let c = &chains[i];
                 plan_chain(mesh, seam, &before.patch_of_face, c, dirs, spacing, mean_edge, snap, &mut taken)
                     .map(|p| (i, p))
             })
-            .collect();
-        plans
+            .collect()
     };
     let mut plans = plan(snap);
     // 2. The edge pins inserted as vertices, each as a piece of its edge (seam edges carry no
     // pin, so no seam is split and every vertex keeps its id).
-    let lines = |plans: &[(usize, Vec<SurfacePoint>)]| -> Vec<Vec<SurfacePoint>> {
-        plans
-            .iter()
-            .flat_map(|(_, pins)| pins.iter())
-            .filter_map(|p| match *p {
-                SurfacePoint::Edge { edge, .. } => Some(vec![*p, SurfacePoint::Vertex(mesh.edge_vertices(edge)[0])]),
-                SurfacePoint::Vertex(_) => None,
-            })
-            .collect()
-    };
+    let edge_pins: Vec<Vec<SurfacePoint>> = plans
+        .iter()
+        .flat_map(|(_, pins)| pins.iter())
+        .filter_map(|p| match *p {
+            SurfacePoint::Edge { edge, .. } => Some(vec![*p, SurfacePoint::Vertex(mesh.edge_vertices(edge)[0])]),
+            SurfacePoint::Vertex(_) => None,
+        })
+        .collect();
     let mut refined = None;
-    let edge_pins = lines(&plans);
     if !edge_pins.is_empty() {
         match insert_polylines(mesh, &edge_pins, &RemeshOptions { snap: 0.0 }) {
             Ok(r) => refined = Some(r),
@@ -157,12 +153,8 @@ pub fn reroute(
         Some(r) => {
             let old: Vec<Vec<VertexId>> =
                 mesh.edges().filter(|&e| seam[e]).map(|e| mesh.edge_vertices(e).to_vec()).collect();
-            let mut index2 = VertexData::filled(r.mesh.n_vertices(), 0);
-            for v in mesh.vertices() {
-                index2[v] = index[v];
-            }
             let dirs2 = r.face_parent.map(|&f| dirs[f]);
-            let rule2 = CornerRule::new(&r.mesh, &index2).with_chords(chords).with_field(dirs2.clone());
+            let rule2 = CornerRule::new(&r.mesh, &r.carry(index, 0)).with_chords(chords).with_field(dirs2.clone());
             (&r.mesh, seam_edges(&r.mesh, &old), dirs2, rule2)
         }
     };

@@ -239,13 +239,8 @@ impl Stage {
     /// The stage on a remeshing of its mesh, with the given seams: faces keep their input parent,
     /// inserted vertices are regular.
     fn remeshed(&self, r: &crate::remesh::Remeshed, seam: EdgeData<bool>) -> Stage {
-        let mut singular = VertexData::filled(r.mesh.n_vertices(), false);
-        let mut index = VertexData::filled(r.mesh.n_vertices(), 0);
-        for v in self.mesh.vertices() {
-            singular[v] = self.singular[v];
-            index[v] = self.index[v];
-        }
         let face_parent = r.face_parent.map(|&f| self.face_parent[f]);
+        let (singular, index) = (r.carry(&self.singular, false), r.carry(&self.index, 0));
         Stage { mesh: r.mesh.clone(), face_parent, seam, singular, index }
     }
 }
@@ -390,7 +385,8 @@ pub fn segment(
     let final_chords = if stats.straightened { FINAL_CHORD_STEPS } else { CHORD_STEPS };
     // On the final seams, where corners are counted as reported (the corners before
     // straightening were measured on the traced seams and can differ): merge a patch that is
-    // not a quad with a neighbour when the union is one, then split non-quads from a corner.
+    // not a quad with a neighbour when the union is one, split non-quads from a corner, repair
+    // cusps.
     for _ in 0..if opts.late_repairs { LATE_ROUNDS } else { 0 } {
         let mut merged = 0;
         if opts.merge {
@@ -402,25 +398,24 @@ pub fn segment(
         }
         let (mut split, mut zipped) = (0, 0);
         if stats.straightened {
-            let (late_stage, n, m) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts);
-            stage = late_stage;
-            split = n;
-            stats.splits += n;
-            stats.merges += m;
-            // Cusp repairs: cuts along the field first, then the smallest spikes.
-            let (mut late_stage, mut n, mut m) = (stage.clone(), 0, 0);
-            for aligned in [true, false] {
-                (late_stage, n, m) = late_repair(&stage, &dirs, final_chords, opts, "cusps", true, |state, budget| {
-                    state.zip_cusps(budget, aligned)
-                });
-                if n > 0 {
-                    break;
-                }
+            if let Some((late_stage, n, m)) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts) {
+                stage = late_stage;
+                split = n;
+                stats.splits += n;
+                stats.merges += m;
             }
-            stage = late_stage;
-            zipped = n;
-            stats.cusp_repairs += n;
-            stats.merges += m;
+            // Cusp repairs: cuts along the field first, then the smallest spikes.
+            let zips = [true, false].into_iter().find_map(|aligned| {
+                late_repair(&stage, &dirs, final_chords, opts, "cusps", true, |state, budget| {
+                    state.zip_cusps(budget, aligned)
+                })
+            });
+            if let Some((late_stage, n, m)) = zips {
+                stage = late_stage;
+                zipped = n;
+                stats.cusp_repairs += n;
+                stats.merges += m;
+            }
         }
         if merged + split + zipped == 0 {
             break;
@@ -534,15 +529,15 @@ pub fn segment(
 
 /// Concave and corner splits ([`State::split_concave`], [`State::split_to_quads`]) on the
 /// final, straightened seams, where corners are counted as reported: the new seams are traced
-/// on the final mesh ([`late_repair`]). Returns the stage to use, the splits kept and the tiny
-/// merges they brought.
+/// on the final mesh ([`late_repair`]). Returns the new stage, the splits kept and the tiny
+/// merges they brought, or None when no split is kept.
 fn late_splits(
     stage: &Stage,
     dirs: &FaceData<Vec3>,
     trace: &TraceOptions,
     chords: usize,
     opts: &LayoutOptions,
-) -> (Stage, usize, usize) {
+) -> Option<(Stage, usize, usize)> {
     let mesh = &stage.mesh;
     let field_directions = final_field(stage, dirs);
     let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
@@ -560,8 +555,8 @@ fn late_splits(
 /// when, after the tiny pass, it has a larger share of quads, only disks and no more tiny
 /// patches than before; all the changes found are tried together, then (if that is not kept)
 /// a single one. With `tiny_first`, `propose` works on the stage after the tiny pass (the
-/// neighbours a repair hands faces to are then those of the final layout). Returns the stage
-/// to use, the changes kept and the tiny merges they brought.
+/// neighbours a repair hands faces to are then those of the final layout). Returns the new
+/// stage, the changes kept and the tiny merges they brought, or None when nothing is kept.
 fn late_repair(
     stage: &Stage,
     dirs: &FaceData<Vec3>,
@@ -570,7 +565,7 @@ fn late_repair(
     what: &str,
     tiny_first: bool,
     propose: impl Fn(&mut State<'_>, usize) -> usize,
-) -> (Stage, usize, usize) {
+) -> Option<(Stage, usize, usize)> {
     // Measured after the tiny pass that follows (a change may cut off a sliver that then
     // merges into another neighbour): share of quads, all disks, tiny patches left.
     let quad_share = |s: &Stage| {
@@ -616,7 +611,7 @@ fn late_repair(
                 let (after, disks, tiny, alt, merges) = quad_share(&alt);
                 tracing::debug!(what, changes = n, merges, ok, before, after, disks, tiny, "late repair");
                 if ok && disks && tiny <= tiny_before && after > before {
-                    return (alt, n, first_merges + merges);
+                    return Some((alt, n, first_merges + merges));
                 }
             }
             Err(e) => tracing::debug!(what, changes = n, error = %e, "late repair dropped: straightening failed"),
@@ -625,7 +620,7 @@ fn late_repair(
             break;
         }
     }
-    (orig.clone(), 0, 0)
+    None
 }
 
 /// Merge patches below `min_patch_fraction` of the area into a neighbour, on a stage's own
@@ -686,7 +681,7 @@ fn smooth(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> Result
     Ok((stage, ok))
 }
 
-/// [`smooth`] without the warning (for the late splits, where a failure only drops them).
+/// [`smooth`] without the warning (for the late repairs, where a failure only drops them).
 fn smooth_quiet(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> Result<(Stage, bool), LayoutError> {
     let before = patches(&stage.mesh, &stage.seam);
     let deg = network::seam_degree(&stage.mesh, &stage.seam);
@@ -794,7 +789,7 @@ const REROUTE_PIN_SNAP: f64 = 0.3;
 /// Rounds of straightening in [`smooth`].
 const SMOOTH_ATTEMPTS: usize = 8;
 
-/// Rounds of merges and corner splits on the final seams.
+/// Rounds of late repairs (merges, corner splits, cusp repairs) on the final seams.
 const LATE_ROUNDS: usize = 3;
 
 /// Polylines whose interior shares a point (vertex or edge point) with another polyline.
@@ -1202,8 +1197,8 @@ impl<'a> State<'a> {
         max_splits: usize,
         starts: impl Fn(&RegionInfo) -> Vec<VertexId>,
     ) -> usize {
-        self.repair_non_quads(max_splits, starts, |state, p, v, bad| {
-            match state.best_corner_split(p, v, bad, vf, trace) {
+        self.repair_non_quads(max_splits, starts, |state, p, v, info| {
+            match state.best_corner_split(p, v, info.corners.len().abs_diff(4), vf, trace) {
                 Some((a, b)) => {
                     state.apply_split(p, a, b);
                     true
@@ -1214,14 +1209,14 @@ impl<'a> State<'a> {
     }
 
     /// Repairs of non-quad patches, one at a time until none is found or `max` are made: for
-    /// each patch that is not a quad (Σ |corners − 4| = `bad` > 0) and each boundary vertex
-    /// `starts` picks from its [`RegionInfo`], `repair(self, p, v, bad)` makes one (true) or
-    /// not (false: that patch and vertex are not tried again). Returns the repairs made.
+    /// each patch that is not a quad and each boundary vertex `starts` picks from its
+    /// [`RegionInfo`], `repair(self, p, v, info)` makes one (true) or not (false: that patch
+    /// and vertex are not tried again). Returns the repairs made.
     fn repair_non_quads(
         &mut self,
         max: usize,
         starts: impl Fn(&RegionInfo) -> Vec<VertexId>,
-        mut repair: impl FnMut(&mut Self, u32, VertexId, usize) -> bool,
+        mut repair: impl FnMut(&mut Self, u32, VertexId, &RegionInfo) -> bool,
     ) -> usize {
         let mut done = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
@@ -1231,15 +1226,14 @@ impl<'a> State<'a> {
                     continue;
                 }
                 let info = self.info_of(p);
-                let bad = info.corners.len().abs_diff(4);
-                if bad == 0 {
+                if info.corners.len() == 4 {
                     continue;
                 }
                 for v in starts(&info) {
                     if failed.contains(&(p, v)) {
                         continue;
                     }
-                    if repair(self, p, v, bad) {
+                    if repair(self, p, v, &info) {
                         done += 1;
                         continue 'outer;
                     }
@@ -1268,7 +1262,7 @@ impl<'a> State<'a> {
             let cusp = |&&(v, q): &&(VertexId, f64)| q < CUSP_QUARTERS && !mesh.is_boundary_vertex(v);
             info.candidates.iter().filter(cusp).map(|&(v, _)| v).collect()
         };
-        self.repair_non_quads(max, cusps, |state, p, v, _| match state.best_zip(p, v, aligned) {
+        self.repair_non_quads(max, cusps, |state, p, v, info| match state.best_zip(p, v, info, aligned) {
             Some((spike, to, cut)) => {
                 state.apply_zip(p, to, &spike, &cut);
                 true
@@ -1292,15 +1286,12 @@ impl<'a> State<'a> {
 
     /// Is edge `e` a cut under the current labels and seams?
     fn is_cut(&self, e: EdgeId) -> bool {
-        match self.mesh.edge_faces(e) {
-            (_, None) => true,
-            (a, Some(b)) => self.seam[e] || self.label[a] != self.label[b],
-        }
+        crate::patches::is_cut_edge(self.mesh, e, &|f| self.label[f], &|e| self.seam[e])
     }
 
-    /// The best cusp repair of patch `p` at `v` ([`Self::zip_cusps`]): the spike's faces, the
-    /// patch that receives them and the cut edges.
-    fn best_zip(&self, p: u32, v: VertexId, aligned: bool) -> Option<Zip> {
+    /// The best cusp repair of patch `p` (topology and corners `info`) at `v`
+    /// ([`Self::zip_cusps`]): the spike's faces, the patch that receives them and the cut edges.
+    fn best_zip(&self, p: u32, v: VertexId, info: &RegionInfo, aligned: bool) -> Option<Zip> {
         let mesh = self.mesh;
         let angles = &self.rule.angles;
         let in_p = |f: FaceId| self.label[f] == p;
@@ -1323,15 +1314,9 @@ impl<'a> State<'a> {
             }
         }
         let (_, h, g) = wedge?;
-        let distinct = |u: VertexId| {
-            let mut ls: Vec<u32> = mesh.vertex_faces(u).map(|f| self.label[f]).collect();
-            ls.sort_unstable();
-            ls.dedup();
-            ls.len()
-        };
-        let is_node = |u: VertexId| self.singular[u] || mesh.is_boundary_vertex(u) || distinct(u) >= 3;
-        // The two arms as vertex lists from v to their next node: along p's boundary backwards
-        // from h, forwards from g.
+        // The two arms as vertex lists from v to the next corner candidate of p: along p's
+        // boundary backwards from h, forwards from g.
+        let nodes: BTreeSet<VertexId> = info.candidates.iter().map(|&(u, _)| u).collect();
         let arm = |start: HalfedgeId, forward: bool| -> Option<Vec<VertexId>> {
             let mut out = vec![v];
             let mut k = start;
@@ -1342,7 +1327,7 @@ impl<'a> State<'a> {
                     // Around the whole patch without meeting a node.
                     return None;
                 }
-                if is_node(u) {
+                if nodes.contains(&u) {
                     return Some(out);
                 }
                 let step = |x: HalfedgeId| if forward { mesh.next(x) } else { mesh.prev(x) };
@@ -1377,36 +1362,40 @@ impl<'a> State<'a> {
         // (drop of Σ |corners − 4|, tie-break key, the repair)
         let mut best: Option<(usize, f64, Zip)> = None;
         let min_width = if aligned { ZIP_MIN_WIDTH * self.mean_edge } else { 0.0 };
+        let p_area: f64 = faces.iter().map(|&f| mesh.face_area(f)).sum();
         let field = self.rule.field.as_ref()?;
         for (a, b) in pairs {
             if a == b || (pos(a) - pos(b)).norm() < min_width {
                 continue;
             }
             let Some(path) = shortest_edge_path(mesh, a, b, &interior) else { continue };
-            // The cut's deviation from the field: its chord against the arms of the faces
-            // along it (mean).
-            let chord = pos(b) - pos(a);
-            let along: BTreeSet<FaceId> =
-                path.iter().flat_map(|&u| mesh.vertex_faces(u)).filter(|&f| in_p(f)).collect();
-            let angles: Vec<f64> = along
-                .iter()
-                .filter_map(|&f| {
-                    let n = mesh.face_normal(f);
-                    let t = chord - n * n.dot(&chord);
-                    let t = (t.norm() > 1e-12 * chord.norm()).then(|| t.normalize())?;
-                    let (x, y) = (field[f], n.cross(&field[f]));
-                    Some(x.dot(&t).abs().max(y.dot(&t).abs()).clamp(0.0, 1.0).acos())
-                })
-                .collect();
-            let deviation = angles.iter().sum::<f64>() / angles.len().max(1) as f64;
             let cut: BTreeSet<EdgeId> = path.windows(2).filter_map(|w| edge_between(mesh, w[0], w[1])).collect();
             let Some((s1, s2)) = self.two_sides(faces, &cut) else { continue };
             let (spike, rest) = if s1.binary_search(&spike_face).is_ok() { (s1, s2) } else { (s2, s1) };
             let spike_area: f64 = spike.iter().map(|&f| mesh.face_area(f)).sum();
-            let p_area: f64 = faces.iter().map(|&f| mesh.face_area(f)).sum();
             if spike_area > 0.5 * p_area {
                 continue;
             }
+            // The tie-break: the cut's deviation from the field (its chord against the arms of
+            // the faces along it, mean), else the spike's area.
+            let key = if aligned {
+                let chord = pos(b) - pos(a);
+                let along: BTreeSet<FaceId> =
+                    path.iter().flat_map(|&u| mesh.vertex_faces(u)).filter(|&f| in_p(f)).collect();
+                let angles: Vec<f64> = along
+                    .iter()
+                    .filter_map(|&f| {
+                        let n = mesh.face_normal(f);
+                        let t = chord - n * n.dot(&chord);
+                        let t = (t.norm() > 1e-12 * chord.norm()).then(|| t.normalize())?;
+                        let (x, y) = (field[f], n.cross(&field[f]));
+                        Some(x.dot(&t).abs().max(y.dot(&t).abs()).clamp(0.0, 1.0).acos())
+                    })
+                    .collect();
+                angles.iter().sum::<f64>() / angles.len().max(1) as f64
+            } else {
+                spike_area
+            };
             for to in [qa, qb].into_iter().flatten() {
                 if to == p {
                     continue;
@@ -1416,16 +1405,10 @@ impl<'a> State<'a> {
                 // No singularity may lose its last seam edge (the seams between the spike and
                 // `to` go away, the cut comes in).
                 let mut degree: BTreeMap<VertexId, i64> = BTreeMap::new();
-                for e in spike.iter().flat_map(|&f| (0..3).map(move |k| mesh.edge(mesh.face_halfedge(f, k)))) {
-                    let (f0, f1) = mesh.edge_faces(e);
-                    let removed =
-                        self.seam[e] && f1.is_some_and(|f1| label(f0) == label(f1) && self.label[f0] != self.label[f1]);
-                    for u in mesh.edge_vertices(e).into_iter().filter(|&u| removed && self.singular[u]) {
-                        *degree.entry(u).or_insert(i64::from(self.degree[u])) -= 1;
+                for (e, now) in self.zip_changes(&spike, to, &cut) {
+                    for u in mesh.edge_vertices(e).into_iter().filter(|&u| self.singular[u]) {
+                        *degree.entry(u).or_insert(i64::from(self.degree[u])) += if now { 1 } else { -1 };
                     }
-                }
-                for u in cut.iter().flat_map(|&e| mesh.edge_vertices(e)).filter(|&u| self.singular[u]) {
-                    *degree.entry(u).or_insert(i64::from(self.degree[u])) += 1;
                 }
                 if degree.iter().any(|(&u, &d)| d <= 0 && !mesh.is_boundary_vertex(u)) {
                     continue;
@@ -1439,26 +1422,12 @@ impl<'a> State<'a> {
                     .map(|f| self.label[f])
                     .chain([p, to])
                     .collect();
-                let (mut before, mut after) = (0, 0);
-                let mut valid = true;
-                for &r in &around {
-                    before += *bad_now.entry(r).or_insert_with(|| self.info_of(r).corners.len().abs_diff(4));
-                    let fr: &[FaceId] = if r == p {
-                        &rest
-                    } else if r == to {
-                        &grown
-                    } else {
-                        &self.faces[r as usize]
-                    };
-                    let info = region_info(mesh, fr, &label, &seam_after, &self.rule);
-                    valid &= info.is_disk();
-                    after += info.corners.len().abs_diff(4);
-                }
-                if !valid || after >= before {
+                let changed = [(p, &rest[..]), (to, &grown[..])];
+                let (before, after, disks) = self.corner_sums(&around, &changed, &label, &seam_after, &mut bad_now);
+                if !disks || after >= before {
                     continue;
                 }
                 let gain = before - after;
-                let key = if aligned { deviation } else { spike_area };
                 if best.as_ref().is_none_or(|(bg, bk, _)| gain > *bg || (gain == *bg && key < *bk)) {
                     best = Some((gain, key, (spike.clone(), to, cut.clone())));
                 }
@@ -1467,23 +1436,51 @@ impl<'a> State<'a> {
         best.map(|(_, _, zip)| zip)
     }
 
-    /// Give the `spike` faces of `p` to patch `to`, the `cut` edges becoming seams and the
-    /// seams between the spike and `to` going away.
-    fn apply_zip(&mut self, p: u32, to: u32, spike: &[FaceId], cut: &BTreeSet<EdgeId>) {
+    /// The seam changes of handing `spike` (sorted faces of one patch) to patch `to` with the
+    /// `cut` edges added ([`Self::seam_after`]): every interior edge whose state changes, and
+    /// whether it is a seam then.
+    fn zip_changes(&self, spike: &[FaceId], to: u32, cut: &BTreeSet<EdgeId>) -> Vec<(EdgeId, bool)> {
         let mesh = self.mesh;
-        let in_spike = |f: FaceId| spike.binary_search(&f).is_ok();
-        let after = |f: FaceId| if in_spike(f) { to } else { self.label[f] };
+        let after = |f: FaceId| if spike.binary_search(&f).is_ok() { to } else { self.label[f] };
         let mut touched: BTreeSet<EdgeId> = cut.clone();
         touched.extend(spike.iter().flat_map(|&f| (0..3).map(move |k| mesh.edge(mesh.face_halfedge(f, k)))));
-        let changes: Vec<(EdgeId, bool)> = touched
+        touched
             .into_iter()
             .filter(|&e| !mesh.is_boundary_edge(e))
             .filter_map(|e| {
                 let want = self.seam_after(e, &after, cut);
                 (want != self.seam[e]).then_some((e, want))
             })
-            .collect();
-        for (e, want) in changes {
+            .collect()
+    }
+
+    /// Σ |corners − 4| over the patches `ids` as they are (cached in `now`) and under the
+    /// labelling `label` with seams `seam`, the faces of the patches in `changed` replaced;
+    /// and whether they would all be disks.
+    fn corner_sums(
+        &self,
+        ids: &BTreeSet<u32>,
+        changed: &[(u32, &[FaceId])],
+        label: &impl Fn(FaceId) -> u32,
+        seam: &impl Fn(EdgeId) -> bool,
+        now: &mut BTreeMap<u32, usize>,
+    ) -> (usize, usize, bool) {
+        let (mut before, mut after, mut disks) = (0, 0, true);
+        for &r in ids {
+            before += *now.entry(r).or_insert_with(|| self.info_of(r).corners.len().abs_diff(4));
+            let faces = changed.iter().find(|(q, _)| *q == r).map_or(&self.faces[r as usize][..], |&(_, f)| f);
+            let info = region_info(self.mesh, faces, label, seam, &self.rule);
+            disks &= info.is_disk();
+            after += info.corners.len().abs_diff(4);
+        }
+        (before, after, disks)
+    }
+
+    /// Give the `spike` faces of `p` to patch `to`, the `cut` edges becoming seams and the
+    /// seams between the spike and `to` going away.
+    fn apply_zip(&mut self, p: u32, to: u32, spike: &[FaceId], cut: &BTreeSet<EdgeId>) {
+        let mesh = self.mesh;
+        for (e, want) in self.zip_changes(spike, to, cut) {
             self.seam[e] = want;
             for u in mesh.edge_vertices(e) {
                 if want {
@@ -1496,7 +1493,7 @@ impl<'a> State<'a> {
         for &f in spike {
             self.label[f] = to;
         }
-        self.faces[p as usize].retain(|f| !in_spike(*f));
+        self.faces[p as usize].retain(|f| spike.binary_search(f).is_err());
         self.faces[to as usize].extend_from_slice(spike);
         self.faces[to as usize].sort_unstable();
     }
@@ -1609,12 +1606,9 @@ impl<'a> State<'a> {
             let ends = [path[0], *path.last().expect("paths have two vertices")];
             let others: BTreeSet<u32> =
                 ends.iter().flat_map(|&u| mesh.vertex_faces(u)).map(|f| self.label[f]).filter(|&q| q != p).collect();
-            let (mut before, mut after) = (bad, ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4));
-            for &q in &others {
-                before += *bad_now.entry(q).or_insert_with(|| self.info_of(q).corners.len().abs_diff(4));
-                let fq = &self.faces[q as usize];
-                after += region_info(mesh, fq, &label, &seam, &self.rule).corners.len().abs_diff(4);
-            }
+            let (others_before, others_after, _) = self.corner_sums(&others, &[], &label, &seam, &mut bad_now);
+            let before = bad + others_before;
+            let after = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4) + others_after;
             if after >= before {
                 continue;
             }
