@@ -4,8 +4,9 @@
 //! Degrees of freedom are the free axes of each vertex's constraint frame
 //! ([`crate::constraints::Constraints`]). The sparse pattern (3×3 blocks of vertices sharing a
 //! face) is built once, with the value slot of every element-matrix entry precomputed, so
-//! assembling a Hessian is a parallel per-face evaluation followed by a sequential scatter
-//! (deterministic, no sorting). Per-face results go to reusable buffers.
+//! assembling a Hessian is a parallel per-face evaluation followed by a parallel gather (each
+//! value slot sums its precomputed list of element entries in face order: deterministic, no
+//! atomics). Per-face results go to reusable buffers.
 
 use crate::constraints::Constraints;
 use crate::element::{Element, Mat9, Vec9};
@@ -30,6 +31,8 @@ pub struct Loads {
 
 const NO_SLOT: u32 = u32::MAX;
 const CHUNK: usize = 2048;
+/// Value slots per task of the parallel Hessian gather.
+const GATHER_CHUNK: usize = 4096;
 /// Below this many vertices AMD alone is as good as nested dissection (fertility, 4.5k
 /// vertices: AMD's factor is the faster one), so the second ordering is not computed.
 const ND_MIN_VERTICES: usize = 5000;
@@ -62,11 +65,14 @@ pub struct System<'a> {
     dof: Vec<[u32; 3]>,
     n_dofs: usize,
     pattern: SymmetricPattern,
-    /// Per face, per (row, col) of the 9×9 block with row-dof ≥ col-dof: the value slot.
-    face_slots: Vec<[u32; 81]>,
     /// Per vertex: the slots of its 3×3 diagonal block (for contact).
     vertex_slots: Vec<[u32; 9]>,
     diag_slots: Vec<usize>,
+    /// Gather map of the Hessian assembly: the element-matrix entries summed into value slot
+    /// `s` are `gather_src[gather_start[s]..gather_start[s + 1]]`, each `face · 81 + entry`
+    /// (entry column-major in the face's 9×9 matrix), in face order.
+    gather_start: Vec<u32>,
+    gather_src: Vec<u32>,
     buf: Vec<FaceEval>,
 }
 
@@ -164,6 +170,7 @@ impl<'a> System<'a> {
             })
             .collect();
         let diag_slots = pattern.diagonal_slots();
+        let (gather_start, gather_src) = gather_map(&face_slots, pattern.nnz());
         let volume_center = mesh.bbox().center();
         let zero =
             FaceEval { energy: 0.0, magnitude: 0.0, grad: Vec9::zeros(), ext_grad: Vec9::zeros(), hess: Mat9::zeros() };
@@ -180,9 +187,10 @@ impl<'a> System<'a> {
             dof,
             n_dofs,
             pattern,
-            face_slots,
             vertex_slots,
             diag_slots,
+            gather_start,
+            gather_src,
             buf: vec![zero; mesh.n_faces()],
         }
     }
@@ -342,6 +350,7 @@ impl<'a> System<'a> {
         let loads = &self.loads;
         let elements = &self.elements;
         let center = self.volume_center;
+        let frames = &self.frames;
         self.buf.par_iter_mut().enumerate().for_each(|(fi, out)| {
             let f = FaceId::new(fi);
             let p = mesh.face_vertices(f).map(|v| x[v.idx()]);
@@ -369,6 +378,9 @@ impl<'a> System<'a> {
             let magnitude = e.abs() + (s * ext).abs();
             e -= s * ext;
             g -= eg * s;
+            if hessian {
+                h = rotate_block9(frames, &h, &mesh.face_vertices(f));
+            }
             *out = FaceEval { energy: e, magnitude, grad: g, ext_grad: eg, hess: h };
         });
         // Sequential, deterministic reduction.
@@ -412,17 +424,21 @@ impl<'a> System<'a> {
         let gradient = self.to_dofs(&grad);
         let external = self.to_dofs(&extf).iter().map(|v| v * s).collect();
         let hess = hessian.then(|| {
+            // Parallel over value slots, each summed in face order: deterministic, and the
+            // same sums as a sequential scatter.
             let mut vals = vec![0.0; self.pattern.nnz()];
-            for (fi, r) in self.buf.iter().enumerate() {
-                let vs = mesh.face_vertices(FaceId::new(fi));
-                let h = self.rotate_block9(&r.hess, &vs);
-                let slots = &self.face_slots[fi];
-                for k in 0..81 {
-                    if slots[k] != NO_SLOT {
-                        vals[slots[k] as usize] += h[(k / 9, k % 9)];
+            let (buf, start, src) = (&self.buf, &self.gather_start, &self.gather_src);
+            vals.par_chunks_mut(GATHER_CHUNK).enumerate().for_each(|(c, out)| {
+                for (i, v) in out.iter_mut().enumerate() {
+                    let slot = c * GATHER_CHUNK + i;
+                    let mut acc = 0.0;
+                    for &k in &src[start[slot] as usize..start[slot + 1] as usize] {
+                        let k = k as usize;
+                        acc += buf[k / 81].hess.as_slice()[k % 81];
                     }
+                    *v = acc;
                 }
-            }
+            });
             for (v, blk) in contact_blocks {
                 let blk = match self.frames[v].0 {
                     Some(r) => r.transpose() * blk * r,
@@ -438,19 +454,6 @@ impl<'a> System<'a> {
             vals
         });
         Evaluation { energy, gradient, external, hessian: hess, world_gradient: grad, energy_magnitude, internal_norm }
-    }
-
-    fn rotate_block9(&self, h: &Mat9, vs: &[VertexId; 3]) -> Mat9 {
-        if vs.iter().all(|v| self.frames[v.idx()].0.is_none()) {
-            return *h;
-        }
-        let mut r = Mat9::identity();
-        for (a, v) in vs.iter().enumerate() {
-            if let Some(m) = self.frames[v.idx()].0 {
-                r.fixed_view_mut::<3, 3>(3 * a, 3 * a).copy_from(&m);
-            }
-        }
-        r.transpose() * h * r
     }
 
     /// World vectors per vertex → values on free dofs (projected on the free axes).
@@ -490,4 +493,46 @@ impl<'a> System<'a> {
         let Some(b) = self.barrier else { return vec![Vec3::zeros(); self.supports.len()] };
         self.supports.iter().map(|pl| x.iter().map(|p| pl.normal * (-b.eval(pl.distance(p)).1)).sum()).collect()
     }
+}
+
+/// A face's 9×9 matrix in its vertices' constraint frames.
+fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[VertexId; 3]) -> Mat9 {
+    if vs.iter().all(|v| frames[v.idx()].0.is_none()) {
+        return *h;
+    }
+    let mut r = Mat9::identity();
+    for (a, v) in vs.iter().enumerate() {
+        if let Some(m) = frames[v.idx()].0 {
+            r.fixed_view_mut::<3, 3>(3 * a, 3 * a).copy_from(&m);
+        }
+    }
+    r.transpose() * h * r
+}
+
+/// The assembly's gather map (see [`System`]): for every value slot, the element-matrix entries
+/// summed into it, in face order. Entry `9p + q` of `face_slots` (row p, column q) is read at
+/// column-major index `9q + p`. (Sources are u32 like the slots: meshes up to 53M faces, far
+/// beyond what the per-face buffers of this solver fit in memory.)
+fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut count = vec![0u32; nnz + 1];
+    for slots in face_slots {
+        for &s in slots.iter().filter(|&&s| s != NO_SLOT) {
+            count[s as usize + 1] += 1;
+        }
+    }
+    for i in 0..nnz {
+        count[i + 1] += count[i];
+    }
+    let start = count.clone();
+    let mut src = vec![0u32; start[nnz] as usize];
+    for (fi, slots) in face_slots.iter().enumerate() {
+        for (k, &s) in slots.iter().enumerate() {
+            if s != NO_SLOT {
+                let (p, q) = (k / 9, k % 9);
+                src[count[s as usize] as usize] = (fi * 81 + 9 * q + p) as u32;
+                count[s as usize] += 1;
+            }
+        }
+    }
+    (start, src)
 }
