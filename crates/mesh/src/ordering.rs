@@ -5,17 +5,21 @@
 //! offers nested dissection without a C dependency (METIS). On large surface meshes nested
 //! dissection gives less fill and fewer flops than AMD alone (CHOLMOD with METIS, measured when
 //! the dependencies were chosen: about 28% less fill on a 90k-node system; this module on
-//! kitten's 53k vertices: a 16% smaller factor, factorized 30% faster).
+//! kitten's 53k vertices: a 22% smaller factor than AMD's).
 //!
 //! The graph is split recursively by a plane normal to x, y or z, placed (among positions that
 //! leave at least 30% of the nodes on each side) where the one-sided vertex separator is
-//! smallest (ties: the most balanced); the two halves are ordered first, the separator last.
+//! smallest (ties: the most balanced); that separator is then refined by Fiduccia–Mattheyses
+//! node moves (as METIS refines its separators), which shortens the jagged line a plane cuts
+//! through a triangulation (kitten: factor 23.3M → 21.6M entries, about 12% less time per
+//! factorization); the two halves are ordered first, the separator last.
 //! Below `leaf` nodes a part is ordered by AMD on its own subgraph. On a surface a plane meets
 //! the mesh in curves, so separators have O(√n) vertices and the factor's fill is O(n log n).
 //! Deterministic: sorts break ties by index.
 //!
 //! Complexity: O(n log² n) for the splits (a sort per axis per level; every cut position's
-//! separator size from one sweep) plus the leaves' AMD.
+//! separator size from one sweep), the refinement's heap moves around each separator, plus the
+//! leaves' AMD.
 
 use crate::Vec3;
 use crate::sparse::CholeskySolver;
@@ -94,7 +98,7 @@ impl Graph {
 /// Split `nodes` by a plane normal to x, y or z: (A, B, S) with no edge between A and B, S the
 /// nodes of B with a neighbour in A. Over the three axes and every plane position that leaves
 /// at least [`BALANCE`] of the nodes on each side, the one with the smallest separator (ties:
-/// the most balanced). None when no plane separates.
+/// the most balanced), refined by [`refine_separator`]. None when no plane separates.
 fn bisect(
     g: &Graph,
     pos: &[Vec3],
@@ -114,10 +118,9 @@ fn bisect(
     for &v in nodes {
         mark[v] = s;
     }
-    // Best cut so far: (separator size, imbalance |2k − m|, k), and the nodes sorted along its
-    // axis.
-    let mut best: Option<(usize, usize, usize)> = None;
-    let mut best_sorted: Vec<usize> = Vec::new();
+    // Per axis, the best cut: (separator size, imbalance |2k − m|, k) and the nodes sorted
+    // along the axis.
+    let mut cuts: Vec<((usize, usize, usize), Vec<usize>)> = Vec::new();
     // (Oblique planes, the cube's face and body diagonals, were tried too: no smaller factor
     // on kitten, at three times the cost.)
     for axis in 0..3 {
@@ -139,21 +142,21 @@ fn bisect(
             }
         }
         let mut size = 0i64;
-        let mut improved = false;
+        let mut best: Option<(usize, usize, usize)> = None;
         for (k, d) in diff.iter().enumerate().take(k_hi + 1) {
             size += d;
             let cut = (size as usize, (2 * k).abs_diff(m), k);
             if k >= k_lo && best.is_none_or(|b| (cut.0, cut.1) < (b.0, b.1)) {
                 best = Some(cut);
-                improved = true;
             }
         }
-        if improved {
-            best_sorted = sorted;
+        if let Some(b) = best {
+            cuts.push((b, sorted));
         }
     }
-    let (_, _, k) = best?;
-    let (lo, hi) = best_sorted.split_at(k);
+    // The smallest cut (ties: the most balanced, then the first axis), refined.
+    let ((_, _, k), sorted) = cuts.into_iter().min_by_key(|(c, _)| (c.0, c.1))?;
+    let (lo, hi) = sorted.split_at(k);
     *stamp += 1;
     let sa = *stamp;
     for &v in lo {
@@ -167,15 +170,150 @@ fn bisect(
             b.push(v);
         }
     }
-    if b.is_empty() {
+    let mut a = lo.to_vec();
+    refine_separator(g, &mut a, &mut b, &mut sep, mark, rank, stamp);
+    if a.is_empty() || b.is_empty() {
         return None;
     }
-    let mut a = lo.to_vec();
     a.sort_unstable();
     b.sort_unstable();
     sep.sort_unstable();
     Some((a, b, sep))
 }
+
+
+
+/// Fiduccia–Mattheyses refinement of a vertex separator (Ashcraft & Liu 1998; the node
+/// refinement METIS does on every level): moving a separator node `v` into A pulls its
+/// neighbours in B into the separator, a gain of 1 − |N(v) ∩ B| (and symmetrically into B).
+/// Each pass makes the best move (ties: into the smaller side, then the lowest index) while both
+/// sides keep at least [`REFINE_BALANCE`] of the nodes, also through non-improving moves (up to
+/// [`REFINE_STALL`] in a row), then rolls back to the smallest separator seen; passes repeat
+/// while they shrink it. Keeps the invariant: no edge between A and B.
+fn refine_separator(
+    g: &Graph,
+    a: &mut Vec<usize>,
+    b: &mut Vec<usize>,
+    sep: &mut Vec<usize>,
+    mark: &mut [usize],
+    side: &mut [usize],
+    stamp: &mut usize,
+) {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    const A: usize = 0;
+    const B: usize = 1;
+    const S: usize = 2;
+    let m = a.len() + b.len() + sep.len();
+    let min_side = ((m as f64) * REFINE_BALANCE).ceil() as usize;
+    *stamp += 1;
+    let st = *stamp;
+    for (list, k) in [(&*a, A), (&*b, B), (&*sep, S)] {
+        for &v in list {
+            mark[v] = st;
+            side[v] = k;
+        }
+    }
+    let count = |side: &[usize], v: usize, k: usize| g.neighbors(v).iter().filter(|&&u| mark[u] == st && side[u] == k).count();
+    let mut sizes = [a.len(), b.len(), sep.len()];
+    for _pass in 0..REFINE_PASSES {
+        // Heap of (gain, into the smaller side, lowest index, node, target side); entries are
+        // checked against the current gain when popped (stale ones skipped).
+        let mut heap: BinaryHeap<(i64, bool, Reverse<usize>, usize)> = BinaryHeap::new();
+        let push = |heap: &mut BinaryHeap<(i64, bool, Reverse<usize>, usize)>, side: &[usize], sizes: &[usize; 3], v: usize| {
+            for to in [A, B] {
+                let other = 1 - to;
+                let gain = 1 - count(side, v, other) as i64;
+                heap.push((gain, sizes[to] < sizes[other], Reverse(v), to));
+            }
+        };
+        let start_sep = sizes[S];
+        let imbalance = |sz: &[usize; 3]| sz[A].abs_diff(sz[B]);
+        let mut best = (sizes[S], imbalance(&sizes), 0usize);
+        // Move log: (node, side it went to, nodes it pulled into the separator).
+        let mut log: Vec<(usize, usize, Vec<usize>)> = Vec::new();
+        let mut moved = std::collections::HashSet::new();
+        for &v in sep.iter() {
+            push(&mut heap, side, &sizes, v);
+        }
+        let mut stall = 0usize;
+        while let Some((gain, _, Reverse(v), to)) = heap.pop() {
+            if side[v] != S || moved.contains(&v) {
+                continue;
+            }
+            let other = 1 - to;
+            let pulled: Vec<usize> = g.neighbors(v).iter().copied().filter(|&u| mark[u] == st && side[u] == other).collect();
+            if 1 - pulled.len() as i64 != gain {
+                continue; // stale
+            }
+            if sizes[other] < pulled.len() + min_side {
+                continue;
+            }
+            side[v] = to;
+            for &u in &pulled {
+                side[u] = S;
+            }
+            sizes[to] += 1;
+            sizes[other] -= pulled.len();
+            sizes[S] = sizes[S] + pulled.len() - 1;
+            moved.insert(v);
+            // Gains change for the separator nodes around v and the pulled nodes.
+            for &u in pulled.iter().chain(std::iter::once(&v)) {
+                for &w in g.neighbors(u) {
+                    if mark[w] == st && side[w] == S && !moved.contains(&w) {
+                        push(&mut heap, side, &sizes, w);
+                    }
+                }
+            }
+            for &u in &pulled {
+                push(&mut heap, side, &sizes, u);
+            }
+            log.push((v, to, pulled));
+            if (sizes[S], imbalance(&sizes)) < (best.0, best.1) {
+                best = (sizes[S], imbalance(&sizes), log.len());
+                stall = 0;
+            } else {
+                stall += 1;
+                if stall > REFINE_STALL {
+                    break;
+                }
+            }
+        }
+        // Roll back past the best point.
+        while log.len() > best.2 {
+            let (v, to, pulled) = log.pop().expect("nonempty");
+            let other = 1 - to;
+            for &u in &pulled {
+                side[u] = other;
+            }
+            side[v] = S;
+            sizes[to] -= 1;
+            sizes[other] += pulled.len();
+            sizes[S] = sizes[S] + 1 - pulled.len();
+        }
+        if sizes[S] >= start_sep {
+            break;
+        }
+    }
+    let all: Vec<usize> = a.iter().chain(b.iter()).chain(sep.iter()).copied().collect();
+    a.clear();
+    b.clear();
+    sep.clear();
+    for v in all {
+        match side[v] {
+            A => a.push(v),
+            B => b.push(v),
+            _ => sep.push(v),
+        }
+    }
+}
+
+/// Smallest share of a part's nodes on either side after separator refinement.
+const REFINE_BALANCE: f64 = 0.25;
+/// Refinement passes at most.
+const REFINE_PASSES: usize = 8;
+/// Non-improving moves in a row before a refinement pass stops.
+const REFINE_STALL: usize = 64;
 
 /// Smallest share of a part's nodes on either side of a dissecting plane.
 const BALANCE: f64 = 0.3;
@@ -234,14 +372,77 @@ mod tests {
         let mut seen = order.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..nx * ny).collect::<Vec<_>>());
-        // The top-level separator is a grid line, eliminated last: the last 30 nodes share a
-        // coordinate.
-        let last = &order[order.len() - nx..];
-        let same_x = last.iter().all(|&v| positions[v].x == positions[last[0]].x);
-        let same_y = last.iter().all(|&v| positions[v].y == positions[last[0]].y);
-        assert!(same_x || same_y, "{last:?}");
+        // The top-level separator, eliminated last, is as small as a grid line (30 nodes) and
+        // splits the grid into two parts of at least a quarter each.
+        let last: std::collections::HashSet<usize> = order[order.len() - nx..].iter().copied().collect();
+        let mut comp = vec![usize::MAX; nx * ny];
+        let mut sizes = Vec::new();
+        for s in 0..nx * ny {
+            if last.contains(&s) || comp[s] != usize::MAX {
+                continue;
+            }
+            let (mut stack, mut size) = (vec![s], 0);
+            comp[s] = sizes.len();
+            while let Some(v) = stack.pop() {
+                size += 1;
+                for &(a, b) in &edges {
+                    let u = if a == v { b } else if b == v { a } else { continue };
+                    if !last.contains(&u) && comp[u] == usize::MAX {
+                        comp[u] = sizes.len();
+                        stack.push(u);
+                    }
+                }
+            }
+            sizes.push(size);
+        }
+        assert_eq!(sizes.len(), 2, "{sizes:?}");
+        assert!(sizes.iter().all(|&k| 4 * k >= nx * ny - nx), "{sizes:?}");
         // Deterministic.
         assert_eq!(order, nested_dissection(&positions, &edges, 50));
+    }
+
+    #[test]
+    fn separator_refinement_straightens_a_jagged_separator() {
+        let (nx, ny) = (30, 30);
+        let (positions, edges) = grid_graph(nx, ny, 1.0);
+        let n = positions.len();
+        let mut ptr = vec![0usize; n + 1];
+        for &(a, b) in &edges {
+            ptr[a + 1] += 1;
+            ptr[b + 1] += 1;
+        }
+        for i in 0..n {
+            ptr[i + 1] += ptr[i];
+        }
+        let mut fill = ptr.clone();
+        let mut adj = vec![0usize; ptr[n]];
+        for &(a, b) in &edges {
+            adj[fill[a]] = b;
+            fill[a] += 1;
+            adj[fill[b]] = a;
+            fill[b] += 1;
+        }
+        let g = Graph { ptr, adj };
+        // A: the left part with a zigzag edge; S: the nodes of the rest next to A.
+        let in_a = |v: usize| (v % nx) < 12 + 3 * ((v / nx) % 3);
+        let mut a: Vec<usize> = (0..n).filter(|&v| in_a(v)).collect();
+        let (mut b, mut sep): (Vec<usize>, Vec<usize>) =
+            (0..n).filter(|&v| !in_a(v)).partition(|&v| !g.neighbors(v).iter().any(|&u| in_a(u)));
+        let before = sep.len();
+        assert!(before > ny, "{before}");
+        let (mut mark, mut side, mut stamp) = (vec![usize::MAX; n], vec![0usize; n], 0usize);
+        refine_separator(&g, &mut a, &mut b, &mut sep, &mut mark, &mut side, &mut stamp);
+        // Smaller, down to a grid line's ny nodes, and still a separator of the same nodes.
+        assert!(sep.len() < before && sep.len() >= ny, "{before} -> {}", sep.len());
+        assert_eq!(sep.len(), ny);
+        let mut all: Vec<usize> = a.iter().chain(&b).chain(&sep).copied().collect();
+        all.sort_unstable();
+        assert_eq!(all, (0..n).collect::<Vec<_>>());
+        let side_of = |v: usize| if a.contains(&v) { 0 } else if b.contains(&v) { 1 } else { 2 };
+        for &(x, y) in &edges {
+            assert!(!matches!((side_of(x), side_of(y)), (0, 1) | (1, 0)), "edge {x}-{y} joins A and B");
+        }
+        assert!(a.len() >= n / 4 && b.len() >= n / 4);
     }
 
     #[test]
