@@ -182,8 +182,6 @@ fn bisect(
     Some((a, b, sep))
 }
 
-
-
 /// Fiduccia–Mattheyses refinement of a vertex separator (Ashcraft & Liu 1998; the node
 /// refinement METIS does on every level): moving a separator node `v` into A pulls its
 /// neighbours in B into the separator, a gain of 1 − |N(v) ∩ B| (and symmetrically into B).
@@ -215,13 +213,17 @@ fn refine_separator(
             side[v] = k;
         }
     }
-    let count = |side: &[usize], v: usize, k: usize| g.neighbors(v).iter().filter(|&&u| mark[u] == st && side[u] == k).count();
+    let count =
+        |side: &[usize], v: usize, k: usize| g.neighbors(v).iter().filter(|&&u| mark[u] == st && side[u] == k).count();
     let mut sizes = [a.len(), b.len(), sep.len()];
     for _pass in 0..REFINE_PASSES {
         // Heap of (gain, into the smaller side, lowest index, node, target side); entries are
         // checked against the current gain when popped (stale ones skipped).
         let mut heap: BinaryHeap<(i64, bool, Reverse<usize>, usize)> = BinaryHeap::new();
-        let push = |heap: &mut BinaryHeap<(i64, bool, Reverse<usize>, usize)>, side: &[usize], sizes: &[usize; 3], v: usize| {
+        let push = |heap: &mut BinaryHeap<(i64, bool, Reverse<usize>, usize)>,
+                    side: &[usize],
+                    sizes: &[usize; 3],
+                    v: usize| {
             for to in [A, B] {
                 let other = 1 - to;
                 let gain = 1 - count(side, v, other) as i64;
@@ -243,7 +245,8 @@ fn refine_separator(
                 continue;
             }
             let other = 1 - to;
-            let pulled: Vec<usize> = g.neighbors(v).iter().copied().filter(|&u| mark[u] == st && side[u] == other).collect();
+            let pulled: Vec<usize> =
+                g.neighbors(v).iter().copied().filter(|&u| mark[u] == st && side[u] == other).collect();
             if 1 - pulled.len() as i64 != gain {
                 continue; // stale
             }
@@ -387,7 +390,13 @@ mod tests {
             while let Some(v) = stack.pop() {
                 size += 1;
                 for &(a, b) in &edges {
-                    let u = if a == v { b } else if b == v { a } else { continue };
+                    let u = if a == v {
+                        b
+                    } else if b == v {
+                        a
+                    } else {
+                        continue;
+                    };
                     if !last.contains(&u) && comp[u] == usize::MAX {
                         comp[u] = sizes.len();
                         stack.push(u);
@@ -439,7 +448,15 @@ mod tests {
         let mut all: Vec<usize> = a.iter().chain(&b).chain(&sep).copied().collect();
         all.sort_unstable();
         assert_eq!(all, (0..n).collect::<Vec<_>>());
-        let side_of = |v: usize| if a.contains(&v) { 0 } else if b.contains(&v) { 1 } else { 2 };
+        let side_of = |v: usize| {
+            if a.contains(&v) {
+                0
+            } else if b.contains(&v) {
+                1
+            } else {
+                2
+            }
+        };
         for &(x, y) in &edges {
             assert!(!matches!((side_of(x), side_of(y)), (0, 1) | (1, 0)), "edge {x}-{y} joins A and B");
         }
