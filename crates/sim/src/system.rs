@@ -71,8 +71,8 @@ pub struct System<'a> {
     /// Gather map of the Hessian assembly: the element-matrix entries summed into value slot
     /// `s` are `gather_src[gather_start[s]..gather_start[s + 1]]`, each `face · 81 + entry`
     /// (entry column-major in the face's 9×9 matrix), in face order.
-    gather_start: Vec<u32>,
-    gather_src: Vec<u32>,
+    gather_start: Vec<usize>,
+    gather_src: Vec<usize>,
     buf: Vec<FaceEval>,
 }
 
@@ -432,8 +432,7 @@ impl<'a> System<'a> {
                 for (i, v) in out.iter_mut().enumerate() {
                     let slot = c * GATHER_CHUNK + i;
                     let mut acc = 0.0;
-                    for &k in &src[start[slot] as usize..start[slot + 1] as usize] {
-                        let k = k as usize;
+                    for &k in &src[start[slot]..start[slot + 1]] {
                         acc += buf[k / 81].hess.as_slice()[k % 81];
                     }
                     *v = acc;
@@ -511,10 +510,9 @@ fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[Verte
 
 /// The assembly's gather map (see [`System`]): for every value slot, the element-matrix entries
 /// summed into it, in face order. Entry `9p + q` of `face_slots` (row p, column q) is read at
-/// column-major index `9q + p`. (Sources are u32 like the slots: meshes up to 53M faces, far
-/// beyond what the per-face buffers of this solver fit in memory.)
-fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<u32>, Vec<u32>) {
-    let mut count = vec![0u32; nnz + 1];
+/// column-major index `9q + p`.
+fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<usize>, Vec<usize>) {
+    let mut count = vec![0usize; nnz + 1];
     for slots in face_slots {
         for &s in slots.iter().filter(|&&s| s != NO_SLOT) {
             count[s as usize + 1] += 1;
@@ -524,12 +522,12 @@ fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<u32>, Vec<u32>) {
         count[i + 1] += count[i];
     }
     let start = count.clone();
-    let mut src = vec![0u32; start[nnz] as usize];
+    let mut src = vec![0usize; start[nnz]];
     for (fi, slots) in face_slots.iter().enumerate() {
         for (k, &s) in slots.iter().enumerate() {
             if s != NO_SLOT {
                 let (p, q) = (k / 9, k % 9);
-                src[count[s as usize] as usize] = (fi * 81 + 9 * q + p) as u32;
+                src[count[s as usize]] = fi * 81 + 9 * q + p;
                 count[s as usize] += 1;
             }
         }
