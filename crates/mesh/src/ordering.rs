@@ -12,8 +12,8 @@
 //! smallest (ties: the most balanced); that separator is then refined by Fiduccia–Mattheyses
 //! node moves (as METIS refines its separators), which shortens the jagged line a plane cuts
 //! through a triangulation (kitten: factor 23.3M → 21.7M entries, one factorization about 9%
-//! faster, medians of 7 alternating runs each); the two halves are ordered first, the
-//! separator last.
+//! faster, medians of 7 alternating runs each, first version); the two halves are ordered
+//! first, the separator last.
 //! Below `leaf` nodes a part is ordered by AMD on its own subgraph. On a surface a plane meets
 //! the mesh in curves, so separators have O(√n) vertices and the factor's fill is O(n log n).
 //! Deterministic: sorts break ties by index.
@@ -29,42 +29,7 @@ use crate::sparse::CholeskySolver;
 /// given undirected `edges` over nodes at `positions`.
 pub fn nested_dissection(positions: &[Vec3], edges: &[(usize, usize)], leaf: usize) -> Vec<usize> {
     let n = positions.len();
-    // Adjacency in compressed rows.
-    let mut deg = vec![0usize; n + 1];
-    for &(a, b) in edges {
-        if a != b {
-            deg[a + 1] += 1;
-            deg[b + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        deg[i + 1] += deg[i];
-    }
-    let mut fill = deg.clone();
-    let mut adj = vec![0usize; deg[n]];
-    for &(a, b) in edges {
-        if a != b {
-            adj[fill[a]] = b;
-            fill[a] += 1;
-            adj[fill[b]] = a;
-            fill[b] += 1;
-        }
-    }
-    // Rows sorted and without repeated edges (the separator refinement counts neighbours).
-    let mut ptr = vec![0usize; n + 1];
-    let mut uniq = Vec::with_capacity(adj.len());
-    for v in 0..n {
-        let row = &mut adj[deg[v]..deg[v + 1]];
-        row.sort_unstable();
-        let start = uniq.len();
-        for &u in row.iter() {
-            if uniq.len() == start || uniq[uniq.len() - 1] != u {
-                uniq.push(u);
-            }
-        }
-        ptr[v + 1] = uniq.len();
-    }
-    let graph = Graph { ptr, adj: uniq };
+    let graph = Graph::from_edges(n, edges);
     let mut order = Vec::with_capacity(n);
     // Scratch: which part a node is in during a split (by a stamp, to avoid clearing).
     let mut mark = vec![usize::MAX; n];
@@ -105,15 +70,34 @@ struct Graph {
 }
 
 impl Graph {
+    /// Compressed rows of the undirected graph on `n` nodes with the given edges (either
+    /// direction), rows sorted; loops and repeated edges are dropped (the separator refinement
+    /// counts neighbours).
+    fn from_edges(n: usize, edges: &[(usize, usize)]) -> Self {
+        let mut pairs: Vec<(usize, usize)> =
+            edges.iter().filter(|(a, b)| a != b).flat_map(|&(a, b)| [(a, b), (b, a)]).collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut ptr = vec![0usize; n + 1];
+        for &(a, _) in &pairs {
+            ptr[a + 1] += 1;
+        }
+        for i in 0..n {
+            ptr[i + 1] += ptr[i];
+        }
+        Self { ptr, adj: pairs.into_iter().map(|(_, b)| b).collect() }
+    }
+
     fn neighbors(&self, v: usize) -> &[usize] {
         &self.adj[self.ptr[v]..self.ptr[v + 1]]
     }
 }
 
 /// Split `nodes` by a plane normal to x, y or z: (A, B, S) with no edge between A and B; the
-/// plane's separator S is the nodes of B with a neighbour in A. Over the three axes and every plane position that leaves
-/// at least [`BALANCE`] of the nodes on each side, the one with the smallest separator (ties:
-/// the most balanced), refined by [`refine_separator`]. None when no plane separates.
+/// plane's separator S is the nodes of B with a neighbour in A. Over the three axes and every
+/// plane position that leaves at least [`BALANCE`] of the nodes on each side, the one with the
+/// smallest separator (ties: the most balanced), refined by [`refine_separator`]. None when no
+/// plane separates.
 fn bisect(
     g: &Graph,
     pos: &[Vec3],
@@ -201,9 +185,9 @@ fn bisect(
 /// neighbours in B into the separator, a gain of 1 − |N(v) ∩ B| (and symmetrically into B).
 /// Each pass makes the best move (ties: into the side that was smaller when the move was
 /// queued, then the lowest index) while no move takes a side below [`REFINE_BALANCE`] of the
-/// nodes, also through non-improving moves (up to
-/// [`REFINE_STALL`] in a row), then rolls back to the smallest separator seen; passes repeat
-/// while they shrink it. Keeps the invariant: no edge between A and B.
+/// nodes, also through non-improving moves (up to [`REFINE_STALL`] in a row), then rolls back
+/// to the smallest separator seen; passes repeat while they shrink it. Keeps the invariant: no
+/// edge between A and B.
 fn refine_separator(
     g: &Graph,
     a: &mut Vec<usize>,
@@ -397,6 +381,7 @@ mod tests {
         // The top-level separator, eliminated last, is as small as a grid line (30 nodes) and
         // splits the grid into two parts of at least a quarter each.
         let last: std::collections::HashSet<usize> = order[order.len() - nx..].iter().copied().collect();
+        let g = Graph::from_edges(nx * ny, &edges);
         let mut comp = vec![usize::MAX; nx * ny];
         let mut sizes = Vec::new();
         for s in 0..nx * ny {
@@ -407,14 +392,7 @@ mod tests {
             comp[s] = sizes.len();
             while let Some(v) = stack.pop() {
                 size += 1;
-                for &(a, b) in &edges {
-                    let u = if a == v {
-                        b
-                    } else if b == v {
-                        a
-                    } else {
-                        continue;
-                    };
+                for &u in g.neighbors(v) {
                     if !last.contains(&u) && comp[u] == usize::MAX {
                         comp[u] = sizes.len();
                         stack.push(u);
@@ -434,23 +412,7 @@ mod tests {
         let (nx, ny) = (30, 30);
         let (positions, edges) = grid_graph(nx, ny, 1.0);
         let n = positions.len();
-        let mut ptr = vec![0usize; n + 1];
-        for &(a, b) in &edges {
-            ptr[a + 1] += 1;
-            ptr[b + 1] += 1;
-        }
-        for i in 0..n {
-            ptr[i + 1] += ptr[i];
-        }
-        let mut fill = ptr.clone();
-        let mut adj = vec![0usize; ptr[n]];
-        for &(a, b) in &edges {
-            adj[fill[a]] = b;
-            fill[a] += 1;
-            adj[fill[b]] = a;
-            fill[b] += 1;
-        }
-        let g = Graph { ptr, adj };
+        let g = Graph::from_edges(n, &edges);
         // A: the left part with a zigzag edge; S: the nodes of the rest next to A.
         let in_a = |v: usize| (v % nx) < 12 + 3 * ((v / nx) % 3);
         let mut a: Vec<usize> = (0..n).filter(|&v| in_a(v)).collect();
