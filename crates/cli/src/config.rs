@@ -438,12 +438,26 @@ pub struct SolverSection {
     pub max_iterations: usize,
     /// Continue after a non-converged solve (marked in the summary).
     pub allow_unconverged: bool,
+    /// Precision of the sparse factorization of every Newton step.
+    pub factor_precision: FactorPrecision,
 }
 
 impl Default for SolverSection {
     fn default() -> Self {
-        Self { tolerance: 1e-8, max_iterations: 200, allow_unconverged: false }
+        Self { tolerance: 1e-8, max_iterations: 200, allow_unconverged: false, factor_precision: FactorPrecision::Auto }
     }
+}
+
+/// `[solver] factor_precision`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FactorPrecision {
+    /// Single precision for large factors, double for small ones.
+    Auto,
+    /// Double precision: every step one direct solve.
+    Double,
+    /// A single-precision factor preconditions a double-precision iterative solve.
+    Single,
 }
 
 /// A configuration error naming the key and, when known, the line.
@@ -667,6 +681,10 @@ mod tests {
         assert_eq!(c.infill.fill_level, FillLevel::Height(1.0));
         assert!(Config::from_toml("[mesh]\nup = \"sideways\"\n", "c").is_err());
         assert!(Config::from_toml("[infill]\nfill_level = \"half\"\n", "c").is_err());
+        let c = Config::from_toml("[solver]\nfactor_precision = \"single\"\n", "c").unwrap();
+        assert_eq!(c.solver.factor_precision, FactorPrecision::Single);
+        let e = Config::from_toml("[solver]\n\nfactor_precision = \"half\"\n", "c").unwrap_err().to_string();
+        assert!(e.contains("factor_precision") && e.contains("line 3"), "{e}");
         // Round trip through TOML.
         let text = toml::to_string(&c).unwrap();
         assert_eq!(Config::from_toml(&text, "rt").unwrap(), c);

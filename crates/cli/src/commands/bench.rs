@@ -21,8 +21,18 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
     let mut rows = Vec::new();
     if !args.json {
         println!(
-            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>8} {:>9}",
-            "mesh", "faces", "dofs", "newton", "factor", "total s", "s/iter", "1 factor s", "ratio", "converged"
+            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>8} {:>9}",
+            "mesh",
+            "faces",
+            "dofs",
+            "newton",
+            "factor",
+            "total s",
+            "s/iter",
+            "1 factor s",
+            "prec",
+            "ratio",
+            "converged"
         );
     }
     for m in meshes {
@@ -49,10 +59,12 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "seconds_in_factorizations": s.solver.factorization_seconds,
             "ratio_to_one_factorization": if one > 0.0 { s.seconds / one } else { 0.0 },
             "converged": s.converged, "residual_rel": s.residual_rel,
+            "factor_precision": if s.solver.single_precision { "single" } else { "double" },
+            "pcg_iterations": s.solver.pcg_iterations,
         });
         if !args.json {
             println!(
-                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>8.1} {:>9}",
+                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>6} {:>8.1} {:>9}",
                 name,
                 input.mesh.n_faces(),
                 s.solver.dofs,
@@ -61,6 +73,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
                 s.seconds,
                 per_iter,
                 one,
+                if s.solver.single_precision { "f32" } else { "f64" },
                 row["ratio_to_one_factorization"].as_f64().unwrap_or(0.0),
                 s.converged
             );

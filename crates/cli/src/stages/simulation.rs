@@ -9,7 +9,7 @@ use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
 use clothcast_mesh::{Vec3, VertexId};
 use clothcast_sim::loads::Plane;
 use clothcast_sim::material::{Material, StVenantKirchhoff, WrinklingStVenantKirchhoff};
-use clothcast_sim::newton::NewtonOptions;
+use clothcast_sim::newton::{FactorPrecision, NewtonOptions};
 use clothcast_sim::{FillLevel, Scenario, SimResult, Suspension, simulate};
 use std::path::Path;
 
@@ -55,6 +55,11 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
         newton: NewtonOptions {
             tolerance: cfg.solver.tolerance,
             max_iterations: cfg.solver.max_iterations,
+            factor_precision: match cfg.solver.factor_precision {
+                config::FactorPrecision::Auto => FactorPrecision::Auto,
+                config::FactorPrecision::Double => FactorPrecision::Double,
+                config::FactorPrecision::Single => FactorPrecision::Single,
+            },
             ..Default::default()
         },
     })
