@@ -317,10 +317,11 @@ pub fn solve(
                     }
                     match res {
                         Ok(()) => break true,
-                        // A pivot lost in single precision: this step in double precision,
+                        // A pivot lost in single precision, or a value out of its range:
+                        // this step in double precision,
                         // at the same damping (the damping path stays that of the direct
                         // solve).
-                        Err(SolveError::NotPositiveDefinite { .. }) if single => {
+                        Err(SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }) if single => {
                             stats.single_fallbacks += 1;
                             single = false;
                         }
@@ -469,11 +470,7 @@ impl Factor {
     fn apply(&self, z: &mut [f64]) {
         match self {
             Factor::Double(f) => f.solve_in_place(z),
-            Factor::Single(f) => {
-                let mut w: Vec<f32> = z.iter().map(|&v| v as f32).collect();
-                f.solve_in_place(&mut w);
-                z.iter_mut().zip(&w).for_each(|(a, &b)| *a = b as f64);
-            }
+            Factor::Single(f) => f.solve_in_place(z),
         }
     }
     /// Factor `vals` into `slot`, reusing its buffers when the precision matches.
@@ -484,21 +481,11 @@ impl Factor {
         slot: &mut Option<Factor>,
         single: bool,
     ) -> Result<(), SolveError> {
-        if single {
-            let v32: Vec<f32> = vals.iter().map(|&v| v as f32).collect();
-            // Out of single precision's range: as if a pivot were lost (double precision).
-            if let Some(index) = v32.iter().position(|v| !v.is_finite()) {
-                return Err(SolveError::NotPositiveDefinite { index });
-            }
-            match slot {
-                Some(Factor::Single(f)) => chol.refactor(pattern, &v32, f),
-                _ => chol.factor(pattern, &v32).map(|f| *slot = Some(Factor::Single(f))),
-            }
-        } else {
-            match slot {
-                Some(Factor::Double(f)) => chol.refactor(pattern, vals, f),
-                _ => chol.factor(pattern, vals).map(|f| *slot = Some(Factor::Double(f))),
-            }
+        match (single, slot) {
+            (true, Some(Factor::Single(f))) => chol.refactor(pattern, vals, f),
+            (false, Some(Factor::Double(f))) => chol.refactor(pattern, vals, f),
+            (true, slot) => chol.factor_in(pattern, vals).map(|f| *slot = Some(Factor::Single(f))),
+            (false, slot) => chol.factor_in(pattern, vals).map(|f| *slot = Some(Factor::Double(f))),
         }
     }
 }
