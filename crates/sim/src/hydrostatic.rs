@@ -121,11 +121,10 @@ pub fn mean_sq_positive_depth(d: [f64; 3]) -> D3 {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
         v[i].powi(4) / ((v[i] - v[j]) * (v[i] - v[k]) * D3::cst(6.0))
     };
-    let wet: Vec<usize> = (0..3).filter(|&i| d[i] > 0.0).collect();
-    match wet.len() {
+    match d.iter().filter(|&&x| x > 0.0).count() {
         0 => D3::cst(0.0),
         3 => full(&v),
-        1 => corner(&v, wet[0]),
+        1 => corner(&v, (0..3).find(|&i| d[i] > 0.0).expect("one wet corner")),
         _ => {
             let dry = (0..3).find(|&i| d[i] <= 0.0).expect("one dry corner");
             full(&v) - corner(&v, dry)
@@ -135,15 +134,14 @@ pub fn mean_sq_positive_depth(d: [f64; 3]) -> D3 {
 
 /// Mean of `max(d,0)` over the triangle (value only; for the liquid volume).
 pub fn mean_positive_depth(d: [f64; 3]) -> f64 {
-    let wet: Vec<usize> = (0..3).filter(|&i| d[i] > 0.0).collect();
     let one = |i: usize| {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
         d[i].powi(3) / (3.0 * (d[i] - d[j]) * (d[i] - d[k]))
     };
-    match wet.len() {
+    match d.iter().filter(|&&x| x > 0.0).count() {
         0 => 0.0,
         3 => (d[0] + d[1] + d[2]) / 3.0,
-        1 => one(wet[0]),
+        1 => one((0..3).find(|&i| d[i] > 0.0).expect("one wet corner")),
         _ => {
             let dry = (0..3).find(|&i| d[i] <= 0.0).expect("one dry corner");
             (d[0] + d[1] + d[2]) / 3.0 - one(dry)
