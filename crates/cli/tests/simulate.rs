@@ -143,4 +143,17 @@ fn bench_reports_iterations_and_factorization_floor() {
     assert!(row["newton_iterations"].as_u64().unwrap() > 0);
     assert!(row["factorization_seconds"].as_f64().unwrap() > 0.0);
     assert!(row["seconds"].as_f64().unwrap() >= row["seconds_in_factorizations"].as_f64().unwrap());
+    // The built-in example's factor is small: double precision, no iterative step solves.
+    assert_eq!(row["factor_precision"], "double");
+    // Forced single precision: the same iterations, each step solved iteratively.
+    let dir = tmpdir("bench-single");
+    let cfg = dir.join("single.toml");
+    std::fs::write(&cfg, "[solver]\nfactor_precision = \"single\"\n").unwrap();
+    let o = run(&["bench", "--json", "-c", cfg.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v[0]["factor_precision"], "single");
+    assert_eq!(v[0]["converged"], true);
+    assert_eq!(v[0]["newton_iterations"], row["newton_iterations"]);
+    assert!(v[0]["pcg_iterations"].as_u64().unwrap() >= v[0]["factorizations"].as_u64().unwrap());
 }

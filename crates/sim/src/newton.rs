@@ -86,8 +86,12 @@ pub const SINGLE_MIN_FACTOR_LEN: usize = 2_000_000;
 pub const SINGLE_STEP_TOLERANCE: f64 = 1e-7;
 
 /// Conjugate-gradient iterations allowed with a single-precision factor before the step is
-/// solved in double precision.
-const SINGLE_PCG_MAX_ITER: usize = 30;
+/// solved in double precision (kitten needs 2.8 on average).
+const SINGLE_PCG_MAX_ITER: usize = 20;
+
+/// Steps whose single-precision factor preconditioned too poorly, after which the solve goes
+/// on in double precision.
+const SINGLE_MAX_POOR: usize = 2;
 
 /// One iteration, for logs and tests.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -145,7 +149,8 @@ pub struct SolveStats {
     /// Conjugate-gradient iterations: in those steps, and in steps solved with a
     /// single-precision factor.
     pub pcg_iterations: usize,
-    /// Whether the factorizations were in single precision ([`FactorPrecision`]).
+    /// Whether single precision was chosen for the factorizations ([`FactorPrecision`]; steps
+    /// may still fall back to double, counted in `single_fallbacks`).
     pub single_precision: bool,
     /// Steps that fell back from a single- to a double-precision factor.
     pub single_fallbacks: usize,
@@ -228,12 +233,13 @@ pub fn solve(
     let mut failures = 0usize;
     let mut trial = vec![Vec3::zeros(); x.len()];
     let mut factor: Option<Factor> = None;
-    let use_single = match opts.factor_precision {
+    let mut use_single = match opts.factor_precision {
         FactorPrecision::Double => false,
         FactorPrecision::Single => true,
         FactorPrecision::Auto => chol.factor_len() >= SINGLE_MIN_FACTOR_LEN,
     };
     stats.single_precision = use_single;
+    let mut poor_preconditioner = 0usize;
     let mut pcg_promising = false;
     let termination;
     let mut last_world_gradient;
@@ -361,8 +367,14 @@ pub fn solve(
                         None => {
                             stats.pcg_iterations += SINGLE_PCG_MAX_ITER;
                             stats.single_fallbacks += 1;
+                            poor_preconditioner += 1;
                             tracing::debug!("single-precision factor not accurate enough; double precision");
                             single = false;
+                            // Ill-conditioned beyond single precision: stop paying for the
+                            // wasted iterations.
+                            if poor_preconditioner >= SINGLE_MAX_POOR {
+                                use_single = false;
+                            }
                             continue 'outer;
                         }
                     }

@@ -387,3 +387,35 @@ fn single_precision_factor_follows_the_double_precision_path() {
     let disp = d.stats.max_displacement_m;
     assert!(dmax < 1e-6 * disp, "equilibria differ by {dmax} m (displacement {disp} m)");
 }
+
+/// Stiffnesses beyond single precision's range (Y = 10⁴⁰ N/m, inflated to λ = 1.1 as in the
+/// analytic sphere test): every single-precision factorization is refused as out of range,
+/// each step falls back to double precision, and the equilibrium is the double-precision one.
+#[test]
+fn single_precision_falls_back_to_double() {
+    use clothcast_sim::newton::FactorPrecision;
+    let mesh = shapes::icosphere(3, 0.2);
+    let y = 1e40;
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(y, NU);
+    let r_eff = 3.0 * mesh.signed_volume() / mesh.total_area();
+    let lambda: f64 = 1.1;
+    let p = y * (lambda * lambda - 1.0) / ((1.0 - NU) * lambda * r_eff);
+    let run = |prec: FactorPrecision| {
+        let sc = Scenario {
+            infill_density: 0.0,
+            head_pressure: p,
+            suspension: Suspension::None,
+            newton: NewtonOptions { factor_precision: prec, ..Default::default() },
+            ..Default::default()
+        };
+        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{prec:?}: {:?}", r.stats.termination);
+        r
+    };
+    let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
+    assert_eq!(d.stats.solver.single_fallbacks, 0);
+    assert!(s.stats.solver.single_fallbacks >= s.stats.newton_iterations, "{:?}", s.stats.solver);
+    assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);
+    let dmax = d.positions.iter().zip(&s.positions).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    assert_eq!(dmax, 0.0, "the fallback is the double-precision solve itself");
+}
