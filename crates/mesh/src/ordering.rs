@@ -28,7 +28,18 @@ use crate::sparse::CholeskySolver;
 /// Node order (a permutation: `order[k]` is the k-th node eliminated) for the graph with the
 /// given undirected `edges` over nodes at `positions`.
 pub fn nested_dissection(positions: &[Vec3], edges: &[(usize, usize)], leaf: usize) -> Vec<usize> {
+    nested_dissection_with_top(positions, edges, leaf).0
+}
+
+/// [`nested_dissection`], and the sizes of the two halves of the top split (`order` is the
+/// first half, then the second, then their separator), or None if the graph was not split.
+pub fn nested_dissection_with_top(
+    positions: &[Vec3],
+    edges: &[(usize, usize)],
+    leaf: usize,
+) -> (Vec<usize>, Option<[usize; 2]>) {
     let n = positions.len();
+    let mut top = None;
     let graph = Graph::from_edges(n, edges);
     let mut order = Vec::with_capacity(n);
     // Scratch: which part a node is in during a split (by a stamp, to avoid clearing).
@@ -48,6 +59,9 @@ pub fn nested_dissection(positions: &[Vec3], edges: &[(usize, usize)], leaf: usi
                     order.extend(amd_order(&graph, &nodes, &mut mark, &mut rank, &mut stamp));
                     continue;
                 };
+                if top.is_none() {
+                    top = Some([a.len(), b.len()]);
+                }
                 // Order: A, then B, then the separator (pushed in reverse).
                 stack.push(Task::Emit(sep));
                 stack.push(Task::Split(b));
@@ -56,7 +70,7 @@ pub fn nested_dissection(positions: &[Vec3], edges: &[(usize, usize)], leaf: usi
         }
     }
     debug_assert_eq!(order.len(), n);
-    order
+    (order, top)
 }
 
 enum Task {

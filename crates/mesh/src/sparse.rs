@@ -6,9 +6,13 @@
 //! Backed by `faer`'s supernodal LLᵀ.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky};
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::sparse::linalg::cholesky::{
+    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{MatMut, Par, Side};
+use faer::{Mat, MatMut, Par, Side};
 use std::sync::Arc;
 
 /// Errors of the sparse solver.
@@ -118,15 +122,60 @@ impl SymmetricPattern {
 /// values into the permuted order through a precomputed slot map (converting them to the
 /// factor's precision on the way). Faer would otherwise re-permute the matrix, indices
 /// included, in every factorization (about 13 ms of kitten's 155 ms single-precision one).
+///
+/// With [`CholeskySolver::with_split_ordering`] (a nested-dissection order whose top separator
+/// is known) the factorization runs on two threads: faer's numeric factorization is
+/// sequential per matrix (its own parallel mode was slower here), so the two halves are
+/// factored as two matrices at once, each with the separator appended,
+///
+/// ```text
+/// F0 = chol [A00 B0; B0ᵀ C],   F1 = chol [A11 B1; B1ᵀ c·I],
+/// ```
+///
+/// whose trailing separator blocks give the separator's Schur complement
+/// `S = C − B0ᵀA00⁻¹B0 − B1ᵀA11⁻¹B1 = L0 L0ᵀ + L1 L1ᵀ − c·I` (`c` ≥ λmax(C), a Gershgorin
+/// bound, so that the second matrix is positive definite), factored densely in double
+/// precision. A solve is a forward solve with both halves (in parallel), a dense separator
+/// solve, and a backward solve with both halves (in parallel).
 #[derive(Clone, Debug)]
 pub struct CholeskySolver {
-    symbolic: Arc<SymbolicCholesky<usize>>,
-    /// The permuted matrix's lower triangle, and for each of its slots the slot of the
-    /// caller's pattern it takes its value from.
-    permuted: Arc<(SymmetricPattern, Vec<usize>)>,
-    /// `perm[k]`: the original index placed at position k.
-    perm: Arc<[usize]>,
+    analysis: Arc<Analysis>,
     par: Par,
+}
+
+#[derive(Debug)]
+struct Analysis {
+    /// `perm[k]`: the original index placed at position k.
+    perm: Vec<usize>,
+    kind: Kind,
+}
+
+#[derive(Debug)]
+enum Kind {
+    Whole(Part),
+    Split(Split),
+}
+
+/// One matrix handed to faer: its lower triangle in elimination order, where each of its
+/// slots takes its value from (a slot of the caller's pattern, or [`SEP_SHIFT`]).
+#[derive(Debug)]
+struct Part {
+    symbolic: SymbolicCholesky<usize>,
+    lower: SymmetricPattern,
+    src: Vec<usize>,
+}
+
+/// Source marker of the `c·I` diagonal of the second half's separator block.
+const SEP_SHIFT: usize = usize::MAX;
+
+#[derive(Debug)]
+struct Split {
+    halves: [Part; 2],
+    /// Unknowns of the two halves (without the separator) and of the separator.
+    n: [usize; 2],
+    ns: usize,
+    /// The separator block's entries (row, column in the separator, caller's slot).
+    c_entries: Vec<(usize, usize, usize)>,
 }
 
 impl CholeskySolver {
@@ -138,14 +187,8 @@ impl CholeskySolver {
     /// Symbolic analysis with a given fill-reducing permutation (`perm[i]` is the original
     /// index placed at position i), or AMD when `None`.
     pub fn with_ordering(pattern: &SymmetricPattern, perm: Option<&[usize]>) -> Result<Self, SolveError> {
-        let n = pattern.n;
-        let fwd: Vec<usize> = match perm {
-            Some(p) => {
-                if p.len() != n {
-                    return Err(SolveError::Internal(format!("ordering of {} indices for {n} unknowns", p.len())));
-                }
-                p.to_vec()
-            }
+        let fwd = match perm {
+            Some(p) => p.to_vec(),
             None => {
                 let sym = factorize_symbolic_cholesky(
                     pattern.symbolic(),
@@ -156,63 +199,95 @@ impl CholeskySolver {
                 .map_err(|e| SolveError::Internal(format!("{e:?}")))?;
                 match sym.perm() {
                     Some(p) => p.arrays().0.to_vec(),
-                    None => (0..n).collect(),
+                    None => (0..pattern.n).collect(),
                 }
             }
         };
-        let mut inv = vec![usize::MAX; n];
-        for (i, &p) in fwd.iter().enumerate() {
-            if p >= n || inv[p] != usize::MAX {
-                return Err(SolveError::Internal(format!("ordering is not a permutation (index {p})")));
-            }
-            inv[p] = i;
+        let inv = inverse(&fwd, pattern.n)?;
+        let (lower, src) = permute_pattern(pattern, &inv);
+        let symbolic = analyse(&lower)?;
+        Ok(Self {
+            analysis: Arc::new(Analysis { perm: fwd, kind: Kind::Whole(Part { symbolic, lower, src }) }),
+            par: Par::Seq,
+        })
+    }
+
+    /// Symbolic analysis for the two-thread factorization (see [`CholeskySolver`]): `perm`
+    /// eliminates a first part of `parts[0]` unknowns, then a second of `parts[1]` unknowns
+    /// with no entry coupling it to the first, then their separator. An error if the parts
+    /// are coupled, or if either half is too small for faer's supernodal kernel.
+    pub fn with_split_ordering(
+        pattern: &SymmetricPattern,
+        perm: &[usize],
+        parts: [usize; 2],
+    ) -> Result<Self, SolveError> {
+        let n = pattern.n;
+        let inv = inverse(perm, n)?;
+        let [n0, n1] = parts;
+        if n0 + n1 > n {
+            return Err(SolveError::Internal(format!("parts of {n0} + {n1} unknowns exceed {n}")));
         }
-        // The permuted lower triangle, with the source slot of every entry.
-        let mut keyed: Vec<(u64, usize)> = Vec::with_capacity(pattern.nnz());
+        let ns = n - n0 - n1;
+        // Position → (half, local index); the separator belongs to both.
+        let half_of = |p: usize| {
+            if p < n0 {
+                0
+            } else if p < n0 + n1 {
+                1
+            } else {
+                2
+            }
+        };
+        let local = |h: usize, p: usize| match half_of(p) {
+            2 => [n0, n1][h] + (p - n0 - n1),
+            0 => p,
+            _ => p - n0,
+        };
+        let mut entries: [Vec<(u64, usize)>; 2] = [Vec::new(), Vec::new()];
+        let mut c_entries = Vec::new();
         for c in 0..n {
             for k in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
                 let (i, j) = (inv[pattern.row_idx[k]], inv[c]);
-                let (r, c2) = if i >= j { (i, j) } else { (j, i) };
-                keyed.push((((c2 as u64) << 32) | r as u64, k));
+                let (r, cc) = if i >= j { (i, j) } else { (j, i) };
+                let key = |h: usize| ((local(h, cc) as u64) << 32) | local(h, r) as u64;
+                match (half_of(r), half_of(cc)) {
+                    (2, 2) => {
+                        c_entries.push((r - n0 - n1, cc - n0 - n1, k));
+                        entries[0].push((key(0), k));
+                    }
+                    (a, b) if a == b => entries[a].push((key(a), k)),
+                    (2, h) => entries[h].push((key(h), k)),
+                    _ => return Err(SolveError::Internal(format!("entry ({r}, {cc}) couples the two parts"))),
+                }
             }
         }
-        keyed.sort_unstable_by_key(|e| e.0);
-        let mut col_ptr = vec![0usize; n + 1];
-        let mut row_idx = Vec::with_capacity(keyed.len());
-        let mut src = Vec::with_capacity(keyed.len());
-        for (key, k) in keyed {
-            col_ptr[(key >> 32) as usize + 1] += 1;
-            row_idx.push((key & 0xFFFF_FFFF) as usize);
-            src.push(k);
+        // The second half's separator block: c·I.
+        for s in 0..ns {
+            let d = (n1 + s) as u64;
+            entries[1].push(((d << 32) | d, SEP_SHIFT));
         }
-        for c in 0..n {
-            col_ptr[c + 1] += col_ptr[c];
-        }
-        let lower = SymmetricPattern { n, col_ptr, row_idx };
-        // Faer's identity-ordered analysis reads the upper triangle: the transpose.
-        let mut up_ptr = vec![0usize; n + 1];
-        for &r in &lower.row_idx {
-            up_ptr[r + 1] += 1;
-        }
-        for c in 0..n {
-            up_ptr[c + 1] += up_ptr[c];
-        }
-        let mut next = up_ptr.clone();
-        let mut up_rows = vec![0usize; lower.row_idx.len()];
-        for c in 0..n {
-            for &r in &lower.row_idx[lower.col_ptr[c]..lower.col_ptr[c + 1]] {
-                up_rows[next[r]] = c;
-                next[r] += 1;
+        let mut halves = Vec::with_capacity(2);
+        for (h, e) in entries.into_iter().enumerate() {
+            let (lower, src) = pattern_from_keyed([n0, n1][h] + ns, e);
+            let symbolic = analyse(&lower)?;
+            if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+                return Err(SolveError::Internal("a half is too small for the supernodal kernel".into()));
             }
+            halves.push(Part { symbolic, lower, src });
         }
-        let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_rows);
-        let symbolic = factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, Default::default())
-            .map_err(|e| SolveError::Internal(format!("{e:?}")))?;
-        // Sequential numeric factorization measured as fast or faster than rayon's two threads
-        // on this machine (spot, 32k dofs: 48 vs 70 ms; kitten, 155k dofs: 485 vs 468 ms with
-        // AMD, 210 vs 300 ms with nested dissection; in single precision 0.15 vs 0.32-0.36 s);
-        // assembly is parallel instead.
-        Ok(Self { symbolic: Arc::new(symbolic), permuted: Arc::new((lower, src)), perm: fwd.into(), par: Par::Seq })
+        let halves: [Part; 2] = halves.try_into().expect("two halves");
+        Ok(Self {
+            analysis: Arc::new(Analysis {
+                perm: perm.to_vec(),
+                kind: Kind::Split(Split { halves, n: [n0, n1], ns, c_entries }),
+            }),
+            par: Par::Seq,
+        })
+    }
+
+    /// True if factorizations run on two threads ([`CholeskySolver::with_split_ordering`]).
+    pub fn is_split(&self) -> bool {
+        matches!(self.analysis.kind, Kind::Split(_))
     }
 
     /// AMD order (`order[k]` is the k-th node eliminated) of the `n_nodes`-node graph with the
@@ -231,9 +306,13 @@ impl CholeskySolver {
         })
     }
 
-    /// Stored length of the factor (supernodal storage, including padding).
+    /// Stored length of the factor (supernodal storage, including padding; with the split
+    /// factorization both halves and the dense separator).
     pub fn factor_len(&self) -> usize {
-        self.symbolic.len_val()
+        match &self.analysis.kind {
+            Kind::Whole(p) => p.symbolic.len_val(),
+            Kind::Split(s) => s.halves.iter().map(|p| p.symbolic.len_val()).sum::<usize>() + s.ns * s.ns,
+        }
     }
 
     /// Numeric factorization (double precision) of the matrix with the given values (same
@@ -248,13 +327,17 @@ impl CholeskySolver {
         pattern: &SymmetricPattern,
         values: &[f64],
     ) -> Result<CholeskyFactor<T>, SolveError> {
+        let n_parts = match &self.analysis.kind {
+            Kind::Whole(_) => 1,
+            Kind::Split(_) => 2,
+        };
         let mut f = CholeskyFactor {
-            symbolic: self.symbolic.clone(),
-            perm: self.perm.clone(),
-            values: Vec::new(),
-            a_values: Vec::new(),
+            analysis: self.analysis.clone(),
+            parts: (0..n_parts)
+                .map(|_| PartFactor { values: Vec::new(), a_values: Vec::new(), scratch: None })
+                .collect(),
+            sep: None,
             par: self.par,
-            scratch: None,
             valid: false,
         };
         self.refactor(pattern, values, &mut f)?;
@@ -272,52 +355,205 @@ impl CholeskySolver {
         f: &mut CholeskyFactor<T>,
     ) -> Result<(), SolveError> {
         assert_eq!(values.len(), pattern.nnz(), "value count must match the pattern");
-        assert!(Arc::ptr_eq(&f.symbolic, &self.symbolic), "factor belongs to another solver");
+        assert!(Arc::ptr_eq(&f.analysis, &self.analysis), "factor belongs to another solver");
         f.valid = false;
-        let (lower, src) = &*self.permuted;
-        f.a_values.clear();
-        f.a_values.extend(src.iter().map(|&k| T::from_f64(values[k])));
-        if let Some(k) = f.a_values.iter().position(|v| !v.is_finite()) {
-            return Err(SolveError::OutOfRange { slot: src[k], value: values[src[k]] });
+        let par = self.par;
+        match &self.analysis.kind {
+            Kind::Whole(p) => factor_part(p, values, 0.0, &mut f.parts[0], par)?,
+            Kind::Split(s) => {
+                // c ≥ λmax(C) by Gershgorin, with a margin (the second half's separator block
+                // c·I − B1ᵀA11⁻¹B1 must stay positive definite).
+                let mut row = vec![0.0f64; s.ns];
+                for &(r, c, k) in &s.c_entries {
+                    row[r] += values[k].abs();
+                    if r != c {
+                        row[c] += values[k].abs();
+                    }
+                }
+                let shift = 1.5 * row.iter().fold(0.0f64, |m, &v| m.max(v)).max(f64::MIN_POSITIVE);
+                let (p0, p1) = f.parts.split_at_mut(1);
+                let (r0, r1) = rayon::join(
+                    || factor_part(&s.halves[0], values, shift, &mut p0[0], par),
+                    || factor_part(&s.halves[1], values, shift, &mut p1[0], par),
+                );
+                r0?;
+                r1.map_err(|e| match e {
+                    SolveError::NotPositiveDefinite { index } => {
+                        SolveError::NotPositiveDefinite { index: if index < s.n[1] { s.n[0] + index } else { index } }
+                    }
+                    e => e,
+                })?;
+                // The separator's Schur complement from the trailing blocks: L0 L0ᵀ + L1 L1ᵀ − c·I.
+                let l: Vec<Mat<f64>> =
+                    (0..2).map(|h| trailing_block(&s.halves[h], &f.parts[h], s.n[h], s.ns)).collect();
+                let mut schur = Mat::<f64>::zeros(s.ns, s.ns);
+                for lh in &l {
+                    faer::linalg::matmul::matmul(
+                        schur.as_mut(),
+                        faer::Accum::Add,
+                        lh.as_ref(),
+                        lh.transpose(),
+                        1.0,
+                        Par::Seq,
+                    );
+                }
+                for i in 0..s.ns {
+                    schur[(i, i)] -= shift;
+                }
+                let llt =
+                    schur.llt(Side::Lower).map_err(|_| SolveError::NotPositiveDefinite { index: s.n[0] + s.n[1] })?;
+                f.sep = Some(SepFactor { l0: l[0].clone(), l1: l[1].clone(), schur: llt, shift });
+            }
         }
-        f.values.resize(self.symbolic.len_val(), T::default());
-        // The supernodal kernel zeroes its storage itself; the simplicial one is given a
-        // zeroed buffer, as faer's own high-level API does.
-        if matches!(self.symbolic.raw(), faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Simplicial(_)) {
-            f.values.fill(T::default());
+        f.valid = true;
+        Ok(())
+    }
+}
+
+/// `inv` of a permutation of 0..n, or an error naming the offending index.
+fn inverse(fwd: &[usize], n: usize) -> Result<Vec<usize>, SolveError> {
+    if fwd.len() != n {
+        return Err(SolveError::Internal(format!("ordering of {} indices for {n} unknowns", fwd.len())));
+    }
+    let mut inv = vec![usize::MAX; n];
+    for (i, &p) in fwd.iter().enumerate() {
+        if p >= n || inv[p] != usize::MAX {
+            return Err(SolveError::Internal(format!("ordering is not a permutation (index {p})")));
         }
-        let req = self.symbolic.factorize_numeric_llt_scratch::<T>(self.par, Default::default());
-        let mem = match &mut f.scratch {
-            Some(m) => m,
-            None => {
-                f.scratch.insert(MemBuffer::try_new(req).map_err(|_| SolveError::Internal("out of memory".into()))?)
-            }
-        };
-        let mat = SparseColMatRef::new(lower.symbolic(), &f.a_values);
-        let res = self.symbolic.factorize_numeric_llt(
-            &mut f.values,
-            mat,
-            Side::Lower,
-            Default::default(),
-            self.par,
-            MemStack::new(mem),
-            Default::default(),
-        );
-        match res {
-            Ok(_) => {
-                f.valid = true;
-                Ok(())
-            }
-            Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
-                Err(SolveError::NotPositiveDefinite { index })
-            }
+        inv[p] = i;
+    }
+    Ok(inv)
+}
+
+/// The permuted matrix's lower triangle, with the source slot of every entry.
+fn permute_pattern(pattern: &SymmetricPattern, inv: &[usize]) -> (SymmetricPattern, Vec<usize>) {
+    let mut keyed: Vec<(u64, usize)> = Vec::with_capacity(pattern.nnz());
+    for c in 0..pattern.n {
+        for k in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
+            let (i, j) = (inv[pattern.row_idx[k]], inv[c]);
+            let (r, c2) = if i >= j { (i, j) } else { (j, i) };
+            keyed.push((((c2 as u64) << 32) | r as u64, k));
+        }
+    }
+    pattern_from_keyed(pattern.n, keyed)
+}
+
+/// Lower pattern from `(column << 32 | row, source)` entries (distinct keys).
+fn pattern_from_keyed(n: usize, mut keyed: Vec<(u64, usize)>) -> (SymmetricPattern, Vec<usize>) {
+    keyed.sort_unstable_by_key(|e| e.0);
+    let mut col_ptr = vec![0usize; n + 1];
+    let mut row_idx = Vec::with_capacity(keyed.len());
+    let mut src = Vec::with_capacity(keyed.len());
+    for (key, k) in keyed {
+        col_ptr[(key >> 32) as usize + 1] += 1;
+        row_idx.push((key & 0xFFFF_FFFF) as usize);
+        src.push(k);
+    }
+    for c in 0..n {
+        col_ptr[c + 1] += col_ptr[c];
+    }
+    (SymmetricPattern { n, col_ptr, row_idx }, src)
+}
+
+/// Faer's identity-ordered analysis, which reads the upper triangle: the transpose.
+fn analyse(lower: &SymmetricPattern) -> Result<SymbolicCholesky<usize>, SolveError> {
+    let n = lower.n;
+    let mut up_ptr = vec![0usize; n + 1];
+    for &r in &lower.row_idx {
+        up_ptr[r + 1] += 1;
+    }
+    for c in 0..n {
+        up_ptr[c + 1] += up_ptr[c];
+    }
+    let mut next = up_ptr.clone();
+    let mut up_rows = vec![0usize; lower.row_idx.len()];
+    for c in 0..n {
+        for &r in &lower.row_idx[lower.col_ptr[c]..lower.col_ptr[c + 1]] {
+            up_rows[next[r]] = c;
+            next[r] += 1;
+        }
+    }
+    let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_rows);
+    factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, Default::default())
+        .map_err(|e| SolveError::Internal(format!("{e:?}")))
+}
+
+/// Gather one matrix's values (the separator shift where marked) and factor it.
+fn factor_part<T: FactorScalar>(
+    p: &Part,
+    values: &[f64],
+    shift: f64,
+    f: &mut PartFactor<T>,
+    par: Par,
+) -> Result<(), SolveError> {
+    f.a_values.clear();
+    f.a_values.extend(p.src.iter().map(|&k| T::from_f64(if k == SEP_SHIFT { shift } else { values[k] })));
+    if let Some(k) = f.a_values.iter().position(|v| !v.is_finite()) {
+        let slot = p.src[k];
+        return Err(SolveError::OutOfRange { slot, value: if slot == SEP_SHIFT { shift } else { values[slot] } });
+    }
+    f.values.resize(p.symbolic.len_val(), T::default());
+    // The supernodal kernel zeroes its storage itself; the simplicial one is given a zeroed
+    // buffer, as faer's own high-level API does.
+    if matches!(p.symbolic.raw(), SymbolicCholeskyRaw::Simplicial(_)) {
+        f.values.fill(T::default());
+    }
+    let req = p.symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default());
+    let mem = match &mut f.scratch {
+        Some(m) => m,
+        None => f.scratch.insert(MemBuffer::try_new(req).map_err(|_| SolveError::Internal("out of memory".into()))?),
+    };
+    let mat = SparseColMatRef::new(p.lower.symbolic(), &f.a_values);
+    match p.symbolic.factorize_numeric_llt(
+        &mut f.values,
+        mat,
+        Side::Lower,
+        Default::default(),
+        par,
+        MemStack::new(mem),
+        Default::default(),
+    ) {
+        Ok(_) => Ok(()),
+        Err(faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index }) => {
+            Err(SolveError::NotPositiveDefinite { index })
         }
     }
 }
 
+/// The trailing `ns × ns` block (columns and rows from `start`) of a supernodal factor, in
+/// double precision.
+fn trailing_block<T: FactorScalar>(p: &Part, f: &PartFactor<T>, start: usize, ns: usize) -> Mat<f64> {
+    let SymbolicCholeskyRaw::Supernodal(sym) = p.symbolic.raw() else {
+        unreachable!("split halves are supernodal (checked in the analysis)")
+    };
+    let llt = SupernodalLltRef::new(sym, &f.values);
+    let mut out = Mat::<f64>::zeros(ns, ns);
+    for s in 0..sym.n_supernodes() {
+        let node = llt.supernode(s);
+        let (first, val) = (node.start(), node.val());
+        let ncols = val.ncols();
+        if first + ncols <= start {
+            continue;
+        }
+        for j in 0..ncols {
+            let col = first + j;
+            if col < start {
+                continue;
+            }
+            for i in j..ncols {
+                out[(first + i - start, col - start)] = val[(i, j)].to_f64();
+            }
+            for (k, &row) in node.pattern().iter().enumerate() {
+                out[(row - start, col - start)] = val[(ncols + k, j)].to_f64();
+            }
+        }
+    }
+    out
+}
+
 /// Scalars a factor can be computed in: f64, or f32 for a preconditioner (half the memory
 /// traffic and twice the SIMD width of f64).
-pub trait FactorScalar: faer::traits::RealField + Copy + Default {
+pub trait FactorScalar: faer::traits::RealField + Copy + Default + Send + Sync {
     /// Rounded from f64 (infinite when out of range).
     fn from_f64(v: f64) -> Self;
     /// Widened to f64.
@@ -348,23 +584,38 @@ impl FactorScalar for f32 {
     }
 }
 
-/// A numeric Cholesky factor.
-pub struct CholeskyFactor<T = f64> {
-    symbolic: Arc<SymbolicCholesky<usize>>,
-    perm: Arc<[usize]>,
+/// Buffers of one factored matrix.
+struct PartFactor<T> {
     values: Vec<T>,
     /// The permuted matrix handed to the factorization (kept to reuse its buffer).
     a_values: Vec<T>,
-    par: Par,
     scratch: Option<MemBuffer>,
+}
+
+/// The separator of a split factor: the halves' trailing blocks and the Schur complement's
+/// dense Cholesky factor.
+struct SepFactor {
+    l0: Mat<f64>,
+    l1: Mat<f64>,
+    schur: faer::linalg::solvers::Llt<f64>,
+    #[allow(dead_code)]
+    shift: f64,
+}
+
+/// A numeric Cholesky factor.
+pub struct CholeskyFactor<T = f64> {
+    analysis: Arc<Analysis>,
+    parts: Vec<PartFactor<T>>,
+    sep: Option<SepFactor>,
+    par: Par,
     valid: bool,
 }
 
 impl<T> std::fmt::Debug for CholeskyFactor<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CholeskyFactor")
-            .field("n", &self.symbolic.nrows())
-            .field("len", &self.values.len())
+            .field("n", &self.analysis.perm.len())
+            .field("parts", &self.parts.len())
             .field("valid", &self.valid)
             .finish()
     }
@@ -377,25 +628,102 @@ impl<T: FactorScalar> CholeskyFactor<T> {
     }
 
     /// Solve A x = b in place (`rhs` holds b on entry, x on exit), in the factor's precision
-    /// (b rounded to it, x widened back).
+    /// (b rounded to it, x widened back; the split factor's separator in double precision).
     ///
     /// # Panics
     /// If the factor is invalid (its last factorization failed).
     pub fn solve_in_place(&self, rhs: &mut [f64]) {
         assert!(self.valid, "solve with a failed factorization");
-        let n = self.symbolic.nrows();
-        assert_eq!(rhs.len(), n);
-        let mut x: Vec<T> = self.perm.iter().map(|&i| T::from_f64(rhs[i])).collect();
-        let m = MatMut::from_column_major_slice_mut(&mut x, n, 1);
-        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<T>(1, self.par));
-        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
-            faer::Conj::No,
-            m,
-            self.par,
-            MemStack::new(&mut mem),
-        );
-        for (&i, v) in self.perm.iter().zip(&x) {
-            rhs[i] = v.to_f64();
+        let perm = &self.analysis.perm;
+        assert_eq!(rhs.len(), perm.len());
+        match &self.analysis.kind {
+            Kind::Whole(p) => {
+                let n = perm.len();
+                let mut x: Vec<T> = perm.iter().map(|&i| T::from_f64(rhs[i])).collect();
+                let m = MatMut::from_column_major_slice_mut(&mut x, n, 1);
+                let mut mem = MemBuffer::new(p.symbolic.solve_in_place_scratch::<T>(1, self.par));
+                LltRef::new(&p.symbolic, &self.parts[0].values).solve_in_place_with_conj(
+                    faer::Conj::No,
+                    m,
+                    self.par,
+                    MemStack::new(&mut mem),
+                );
+                for (&i, v) in perm.iter().zip(&x) {
+                    rhs[i] = v.to_f64();
+                }
+            }
+            Kind::Split(s) => self.solve_split(s, rhs),
+        }
+    }
+
+    fn solve_split(&self, s: &Split, rhs: &mut [f64]) {
+        let perm = &self.analysis.perm;
+        let sep = self.sep.as_ref().expect("a valid split factor has its separator");
+        let [n0, n1] = s.n;
+        let ns = s.ns;
+        let offset = [0, n0];
+        // Forward: [z_h; t_h] = F_h⁻¹ [b_h; 0], so that W_hᵀ z_h = −L_h t_h.
+        let mut u: Vec<Vec<T>> = (0..2)
+            .map(|h| {
+                let mut v: Vec<T> = (0..s.n[h]).map(|k| T::from_f64(rhs[perm[offset[h] + k]])).collect();
+                v.resize(s.n[h] + ns, T::default());
+                v
+            })
+            .collect();
+        let (u0, u1) = u.split_at_mut(1);
+        rayon::join(|| self.half_solve(s, 0, &mut u0[0], false), || self.half_solve(s, 1, &mut u1[0], false));
+        // Separator: S xs = b_s − W0ᵀz0 − W1ᵀz1 = b_s + L0 t0 + L1 t1.
+        let mut xs = Mat::<f64>::zeros(ns, 1);
+        for i in 0..ns {
+            xs[(i, 0)] = rhs[perm[n0 + n1 + i]];
+        }
+        for (h, l) in [&sep.l0, &sep.l1].into_iter().enumerate() {
+            let t: Vec<f64> = u[h][s.n[h]..].iter().map(|v| v.to_f64()).collect();
+            for j in 0..ns {
+                let tj = t[j];
+                if tj != 0.0 {
+                    for i in j..ns {
+                        xs[(i, 0)] += l[(i, j)] * tj;
+                    }
+                }
+            }
+        }
+        sep.schur.solve_in_place(xs.as_mut());
+        // Backward: [x_h; xs] = F_h⁻ᵀ [z_h; L_hᵀ xs].
+        for (h, l) in [&sep.l0, &sep.l1].into_iter().enumerate() {
+            for j in 0..ns {
+                let mut acc = 0.0;
+                for i in j..ns {
+                    acc += l[(i, j)] * xs[(i, 0)];
+                }
+                u[h][s.n[h] + j] = T::from_f64(acc);
+            }
+        }
+        let (u0, u1) = u.split_at_mut(1);
+        rayon::join(|| self.half_solve(s, 0, &mut u0[0], true), || self.half_solve(s, 1, &mut u1[0], true));
+        for h in 0..2 {
+            for k in 0..s.n[h] {
+                rhs[perm[offset[h] + k]] = u[h][k].to_f64();
+            }
+        }
+        for i in 0..ns {
+            rhs[perm[n0 + n1 + i]] = xs[(i, 0)];
+        }
+    }
+
+    /// Forward (L) or backward (Lᵀ) triangular solve with half `h`.
+    fn half_solve(&self, s: &Split, h: usize, v: &mut [T], transpose: bool) {
+        let SymbolicCholeskyRaw::Supernodal(sym) = s.halves[h].symbolic.raw() else {
+            unreachable!("split halves are supernodal (checked in the analysis)")
+        };
+        let llt = SupernodalLltRef::new(sym, &self.parts[h].values);
+        let n = v.len();
+        let m = MatMut::from_column_major_slice_mut(v, n, 1);
+        let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<T>(1, self.par));
+        if transpose {
+            llt.l_transpose_solve_with_conj(faer::Conj::No, m, self.par, MemStack::new(&mut mem));
+        } else {
+            llt.l_solve_with_conj(faer::Conj::No, m, self.par, MemStack::new(&mut mem));
         }
     }
 }
@@ -493,5 +821,75 @@ mod tests {
         let mut bad = order.clone();
         bad[1] = bad[0];
         assert!(matches!(CholeskySolver::with_ordering(&p, Some(&bad)), Err(SolveError::Internal(_))));
+    }
+
+    /// The two-thread factorization: a grid split by its middle column solves the original
+    /// system, in both precisions, like the single factorization; coupled parts are refused.
+    #[test]
+    fn split_factorization_solves_the_original_system() {
+        let m = 80;
+        let n = m * m;
+        let id = |i: usize, j: usize| i * m + j;
+        let mut edges = Vec::new();
+        for i in 0..m {
+            for j in 0..m {
+                if i + 1 < m {
+                    edges.push((id(i, j), id(i + 1, j)));
+                }
+                if j + 1 < m {
+                    edges.push((id(i, j), id(i, j + 1)));
+                }
+                // Diagonals, so that the separator couples its neighbours both ways.
+                if i + 1 < m && j + 1 < m {
+                    edges.push((id(i, j), id(i + 1, j + 1)));
+                }
+            }
+        }
+        let p = SymmetricPattern::from_entries(n, edges.iter().copied());
+        let mut v = vec![0.0; p.nnz()];
+        for i in 0..n {
+            v[p.slot(i, i)] = 6.01 + (i % 5) as f64 * 0.1;
+        }
+        for &(a, b) in &edges {
+            v[p.slot(a, b)] = -1.0;
+        }
+        let mid = m / 2;
+        let left: Vec<usize> = (0..m).flat_map(|i| (0..mid).map(move |j| i * m + j)).collect();
+        let right: Vec<usize> = (0..m).flat_map(|i| (mid + 1..m).map(move |j| i * m + j)).collect();
+        let sep: Vec<usize> = (0..m).map(|i| id(i, mid)).collect();
+        let order: Vec<usize> = left.iter().chain(&right).chain(&sep).copied().collect();
+        let split = CholeskySolver::with_split_ordering(&p, &order, [left.len(), right.len()]).unwrap();
+        assert!(split.is_split());
+        let whole = CholeskySolver::with_ordering(&p, Some(&order)).unwrap();
+        assert!(!whole.is_split());
+        let b: Vec<f64> = (0..n).map(|i| ((i * 7) % 11) as f64 - 5.0).collect();
+        let residual = |x: &[f64]| {
+            let mut ax = vec![0.0; n];
+            p.mul_vec(&v, x, &mut ax);
+            ax.iter().zip(&b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+        };
+        let mut xs = b.clone();
+        split.factor(&p, &v).unwrap().solve_in_place(&mut xs);
+        let mut xw = b.clone();
+        whole.factor(&p, &v).unwrap().solve_in_place(&mut xw);
+        assert!(residual(&xs) < 1e-10, "{}", residual(&xs));
+        let dev = xs.iter().zip(&xw).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(dev < 1e-10, "{dev}");
+        let mut x32 = b.clone();
+        split.factor_in::<f32>(&p, &v).unwrap().solve_in_place(&mut x32);
+        assert!(residual(&x32) < 1e-3 && residual(&x32) > 1e-12, "{}", residual(&x32));
+        // Refactoring reuses the buffers and gives the same solution.
+        let mut f = split.factor(&p, &v).unwrap();
+        split.refactor(&p, &v, &mut f).unwrap();
+        let mut xr = b.clone();
+        f.solve_in_place(&mut xr);
+        assert_eq!(xr, xs);
+        // Indefinite: refused.
+        let mut bad = v.clone();
+        bad[p.slot(sep[3], sep[3])] = -50.0;
+        assert!(matches!(split.factor(&p, &bad), Err(SolveError::NotPositiveDefinite { .. })));
+        // Parts that touch each other: refused at the analysis.
+        let wrong: Vec<usize> = left.iter().chain(&sep).chain(&right).copied().collect();
+        assert!(CholeskySolver::with_split_ordering(&p, &wrong, [left.len(), sep.len()]).is_err());
     }
 }

@@ -211,14 +211,20 @@ impl<'a> System<'a> {
     }
 
     /// A nested-dissection ordering of the dofs ([`clothcast_mesh::ordering`]), by the rest
-    /// positions; None for systems too small for it to pay.
-    pub fn dof_ordering_nd(&self) -> Option<Vec<usize>> {
+    /// positions, with the dof counts of the two halves of its top split (eliminated first,
+    /// before their separator); None for systems too small for it to pay.
+    pub fn dof_ordering_nd(&self) -> Option<(Vec<usize>, Option<[usize; 2]>)> {
         if self.mesh.n_vertices() < ND_MIN_VERTICES {
             return None;
         }
         let edges: Vec<(usize, usize)> = self.node_edges().collect();
-        let order = clothcast_mesh::ordering::nested_dissection(self.mesh.positions().as_slice(), &edges, ND_LEAF);
-        Some(self.dofs_in_node_order(&order))
+        let (order, top) =
+            clothcast_mesh::ordering::nested_dissection_with_top(self.mesh.positions().as_slice(), &edges, ND_LEAF);
+        let free = |nodes: &[usize]| -> usize {
+            nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
+        };
+        let parts = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
+        Some((self.dofs_in_node_order(&order), parts))
     }
 
     /// The mesh edges as vertex index pairs (the node graph of the dofs).
