@@ -387,12 +387,17 @@ impl CholeskySolver {
                 let l: Vec<Mat<f64>> =
                     (0..2).map(|h| trailing_block(&s.halves[h], &f.parts[h], s.n[h], s.ns)).collect();
                 let mut schur = Mat::<f64>::zeros(s.ns, s.ns);
+                // Lower triangle only, from the triangular blocks (a third of a full product).
                 for lh in &l {
-                    faer::linalg::matmul::matmul(
+                    use faer::linalg::matmul::triangular::{BlockStructure, matmul};
+                    matmul(
                         schur.as_mut(),
+                        BlockStructure::TriangularLower,
                         faer::Accum::Add,
                         lh.as_ref(),
+                        BlockStructure::TriangularLower,
                         lh.transpose(),
+                        BlockStructure::TriangularUpper,
                         1.0,
                         Par::Seq,
                     );
@@ -402,7 +407,8 @@ impl CholeskySolver {
                 }
                 let llt =
                     schur.llt(Side::Lower).map_err(|_| SolveError::NotPositiveDefinite { index: s.n[0] + s.n[1] })?;
-                f.sep = Some(SepFactor { l0: l[0].clone(), l1: l[1].clone(), schur: llt, shift });
+                let [l0, l1]: [Mat<f64>; 2] = l.try_into().expect("two blocks");
+                f.sep = Some(SepFactor { l0, l1, schur: llt, shift });
             }
         }
         f.valid = true;
@@ -498,10 +504,13 @@ fn factor_part<T: FactorScalar>(
     if matches!(p.symbolic.raw(), SymbolicCholeskyRaw::Simplicial(_)) {
         f.values.fill(T::default());
     }
-    let req = p.symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default());
+    // The workspace's size is computed once (it walks every supernode).
     let mem = match &mut f.scratch {
         Some(m) => m,
-        None => f.scratch.insert(MemBuffer::try_new(req).map_err(|_| SolveError::Internal("out of memory".into()))?),
+        None => {
+            let req = p.symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default());
+            f.scratch.insert(MemBuffer::try_new(req).map_err(|_| SolveError::Internal("out of memory".into()))?)
+        }
     };
     let mat = SparseColMatRef::new(p.lower.symbolic(), &f.a_values);
     match p.symbolic.factorize_numeric_llt(
