@@ -548,7 +548,7 @@ fn pcg(
     let mut rz = dot(&r, &z);
     let mut ap = vec![0.0; n];
     for k in 0..max_iter {
-        pattern.mul_vec(vals, &p, &mut ap);
+        pattern.mul_vec_parallel(vals, &p, &mut ap);
         let pap = dot(&p, &ap);
         if !(pap > 0.0) {
             return None;
