@@ -132,9 +132,22 @@ impl Element {
 /// Closed-form eigen-decomposition of [[a, b], [b, c]]: (λ1 ≥ λ2, angle of λ1's eigenvector).
 #[inline]
 pub fn sym2_eigen(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
+    let (l1, l2) = sym2_eigenvalues(a, b, c);
+    (l1, l2, sym2_angle(a, b, c))
+}
+
+/// The eigenvalues λ1 ≥ λ2 of [[a, b], [b, c]] alone (no arctangent).
+#[inline]
+pub fn sym2_eigenvalues(a: f64, b: f64, c: f64) -> (f64, f64) {
     let m = 0.5 * (a + c);
     let r = (0.25 * (a - c) * (a - c) + b * b).sqrt();
-    (m + r, m - r, 0.5 * (2.0 * b).atan2(a - c))
+    (m + r, m - r)
+}
+
+/// The angle of λ1's eigenvector of [[a, b], [b, c]].
+#[inline]
+pub fn sym2_angle(a: f64, b: f64, c: f64) -> f64 {
+    0.5 * (2.0 * b).atan2(a - c)
 }
 
 /// Positive semi-definite part of a symmetric 2×2 matrix (negative eigenvalues set to 0).

@@ -122,7 +122,14 @@ impl WrinklingStVenantKirchhoff {
 
     /// Principal strains (e1 ≥ e2), angle of v1, and the region.
     pub fn state(&self, e: &Vector3<f64>) -> (f64, f64, f64, TensionState) {
-        let (e1, e2, th) = crate::element::sym2_eigen(e[0], 0.5 * e[2], e[1]);
+        let (e1, e2, st) = self.principal_state(e);
+        (e1, e2, crate::element::sym2_angle(e[0], 0.5 * e[2], e[1]), st)
+    }
+
+    /// Principal strains and the region, without the direction (the energy and the taut and
+    /// slack responses need no arctangent).
+    fn principal_state(&self, e: &Vector3<f64>) -> (f64, f64, TensionState) {
+        let (e1, e2) = crate::element::sym2_eigenvalues(e[0], 0.5 * e[2], e[1]);
         let (l, m) = (self.stvk.lambda, self.stvk.mu);
         let s2 = l * e1 + (l + 2.0 * m) * e2;
         let st = if s2 >= 0.0 {
@@ -132,13 +139,13 @@ impl WrinklingStVenantKirchhoff {
         } else {
             TensionState::Slack
         };
-        (e1, e2, th, st)
+        (e1, e2, st)
     }
 }
 
 impl Material for WrinklingStVenantKirchhoff {
     fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
-        let (e1, e2, th, st) = self.state(e);
+        let (e1, e2, st) = self.principal_state(e);
         match st {
             TensionState::Taut => self.stvk.response(face, e),
             TensionState::Slack => {
@@ -146,6 +153,7 @@ impl Material for WrinklingStVenantKirchhoff {
             }
             TensionState::Wrinkled => {
                 let y = self.stvk.youngs_modulus();
+                let th = crate::element::sym2_angle(e[0], 0.5 * e[2], e[1]);
                 let (c, s) = (th.cos(), th.sin());
                 // Eigenprojectors in Voigt-friendly components.
                 let p1 = [c * c, s * s, c * s];
@@ -169,7 +177,7 @@ impl Material for WrinklingStVenantKirchhoff {
         }
     }
     fn energy(&self, face: FaceId, e: &Vector3<f64>) -> f64 {
-        let (e1, _, _, st) = self.state(e);
+        let (e1, _, st) = self.principal_state(e);
         match st {
             TensionState::Taut => self.stvk.energy(face, e),
             TensionState::Wrinkled => 0.5 * self.stvk.youngs_modulus() * e1 * e1,
