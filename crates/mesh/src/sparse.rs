@@ -6,7 +6,6 @@
 //! Backed by `faer`'s supernodal LLᵀ.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
     LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
@@ -154,13 +153,14 @@ impl SymmetricPattern {
 /// factored as two matrices at once, each with the separator appended,
 ///
 /// ```text
-/// F0 = chol [A00 B0; B0ᵀ C],   F1 = chol [A11 B1; B1ᵀ c·I],
+/// F0 = chol [A00 B0; B0ᵀ c·I],   F1 = chol [A11 B1; B1ᵀ c·I],
 /// ```
 ///
-/// whose trailing separator blocks give the separator's Schur complement
-/// `S = C − B0ᵀA00⁻¹B0 − B1ᵀA11⁻¹B1 = L0 L0ᵀ + L1 L1ᵀ − c·I` (`c` ≥ λmax(C), a Gershgorin
-/// bound, so that the second matrix is positive definite), factored densely in double
-/// precision. A solve is a forward solve with both halves (in parallel), a dense separator
+/// whose trailing separator blocks `L_h` (`L_h L_hᵀ = c·I − B_hᵀA_hh⁻¹B_h`) give the
+/// separator's Schur complement `S = C − B0ᵀA00⁻¹B0 − B1ᵀA11⁻¹B1 = C + Σ_h (L_h L_hᵀ − c·I)`,
+/// factored densely in double precision. `c` is a power of two ≥ 1.5·λmax(C) (Gershgorin):
+/// when the matrix is positive definite, `B_hᵀA_hh⁻¹B_h ≺ C`, so both appended blocks are
+/// positive definite with condition numbers below 3. A solve is a forward solve with both halves (in parallel), a dense separator
 /// solve, and a backward solve with both halves (in parallel).
 #[derive(Clone, Debug)]
 pub struct CholeskySolver {
@@ -279,20 +279,19 @@ impl CholeskySolver {
                 let (r, cc) = if i >= j { (i, j) } else { (j, i) };
                 let key = |h: usize| ((local(h, cc) as u64) << 32) | local(h, r) as u64;
                 match (half_of(r), half_of(cc)) {
-                    (2, 2) => {
-                        c_entries.push((r - n0 - n1, cc - n0 - n1, k));
-                        entries[0].push((key(0), k));
-                    }
+                    (2, 2) => c_entries.push((r - n0 - n1, cc - n0 - n1, k)),
                     (a, b) if a == b => entries[a].push((key(a), k)),
                     (2, h) => entries[h].push((key(h), k)),
                     _ => return Err(SolveError::Internal(format!("entry ({r}, {cc}) couples the two parts"))),
                 }
             }
         }
-        // The second half's separator block: c·I.
-        for s in 0..ns {
-            let d = (n1 + s) as u64;
-            entries[1].push(((d << 32) | d, SEP_SHIFT));
+        // Both halves' separator blocks: c·I (C itself enters the dense Schur complement).
+        for (h, e) in entries.iter_mut().enumerate() {
+            for s in 0..ns {
+                let d = ([n0, n1][h] + s) as u64;
+                e.push(((d << 32) | d, SEP_SHIFT));
+            }
         }
         let mut halves = Vec::with_capacity(2);
         for (h, e) in entries.into_iter().enumerate() {
@@ -383,14 +382,16 @@ impl CholeskySolver {
         f: &mut CholeskyFactor<T>,
     ) -> Result<(), SolveError> {
         assert_eq!(values.len(), pattern.nnz(), "value count must match the pattern");
+        assert_eq!(pattern.n(), self.analysis.perm.len(), "the pattern must be the analysed one");
         assert!(Arc::ptr_eq(&f.analysis, &self.analysis), "factor belongs to another solver");
         f.valid = false;
         let par = self.par;
         match &self.analysis.kind {
             Kind::Whole(p) => factor_part(p, values, 0.0, &mut f.parts[0], par)?,
             Kind::Split(s) => {
-                // c ≥ λmax(C) by Gershgorin, with a margin (the second half's separator block
-                // c·I − B1ᵀA11⁻¹B1 must stay positive definite).
+                // c ≥ 1.5 λmax(C) (Gershgorin), a power of two (exact in either precision):
+                // c·I − B_hᵀA_hh⁻¹B_h ≻ (c − λmax(C))·I, so both halves stay positive definite
+                // and well conditioned whenever the matrix is positive definite.
                 let mut row = vec![0.0f64; s.ns];
                 for &(r, c, k) in &s.c_entries {
                     row[r] += values[k].abs();
@@ -398,24 +399,35 @@ impl CholeskySolver {
                         row[c] += values[k].abs();
                     }
                 }
-                let shift = 1.5 * row.iter().fold(0.0f64, |m, &v| m.max(v)).max(f64::MIN_POSITIVE);
+                let bound = 1.5 * row.iter().fold(0.0f64, |m, &v| m.max(v));
+                let shift = if bound > 0.0 && bound.is_finite() { 2f64.powi(bound.log2().ceil() as i32) } else { 1.0 };
                 let (p0, p1) = f.parts.split_at_mut(1);
                 let (r0, r1) = rayon::join(
                     || factor_part(&s.halves[0], values, shift, &mut p0[0], par),
                     || factor_part(&s.halves[1], values, shift, &mut p1[0], par),
                 );
-                r0?;
-                r1.map_err(|e| match e {
-                    SolveError::NotPositiveDefinite { index } => {
-                        SolveError::NotPositiveDefinite { index: if index < s.n[1] { s.n[0] + index } else { index } }
-                    }
-                    e => e,
-                })?;
-                // The separator's Schur complement from the trailing blocks: L0 L0ᵀ + L1 L1ᵀ − c·I.
+                // Pivot indices in the elimination order of the whole matrix.
+                let global = |h: usize, r: Result<(), SolveError>| {
+                    r.map_err(|e| match e {
+                        SolveError::NotPositiveDefinite { index } => SolveError::NotPositiveDefinite {
+                            index: if index < s.n[h] { [0, s.n[0]][h] + index } else { s.n[0] + s.n[1] + index - s.n[h] },
+                        },
+                        e => e,
+                    })
+                };
+                global(0, r0)?;
+                global(1, r1)?;
+                // The separator's Schur complement C − Σ B_hᵀA_hh⁻¹B_h = C + Σ (L_h L_hᵀ − c·I),
+                // L_h the halves' trailing blocks; lower triangle only.
                 let l: Vec<Mat<f64>> =
                     (0..2).map(|h| trailing_block(&s.halves[h], &f.parts[h], s.n[h], s.ns)).collect();
                 let mut schur = Mat::<f64>::zeros(s.ns, s.ns);
-                // Lower triangle only, from the triangular blocks (a third of a full product).
+                for &(r, c, k) in &s.c_entries {
+                    schur[(r, c)] += values[k];
+                }
+                for i in 0..s.ns {
+                    schur[(i, i)] -= 2.0 * shift;
+                }
                 for lh in &l {
                     use faer::linalg::matmul::triangular::{BlockStructure, matmul};
                     matmul(
@@ -430,13 +442,26 @@ impl CholeskySolver {
                         Par::Seq,
                     );
                 }
-                for i in 0..s.ns {
-                    schur[(i, i)] -= shift;
-                }
-                let llt =
-                    schur.llt(Side::Lower).map_err(|_| SolveError::NotPositiveDefinite { index: s.n[0] + s.n[1] })?;
+                // Dense Cholesky, sequential (no dependence on the thread count).
+                let mut mem = MemBuffer::new(faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch::<f64>(
+                    s.ns,
+                    Par::Seq,
+                    Default::default(),
+                ));
+                faer::linalg::cholesky::llt::factor::cholesky_in_place(
+                    schur.as_mut(),
+                    Default::default(),
+                    Par::Seq,
+                    MemStack::new(&mut mem),
+                    Default::default(),
+                )
+                .map_err(|e| match e {
+                    faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
+                        SolveError::NotPositiveDefinite { index: s.n[0] + s.n[1] + index }
+                    }
+                })?;
                 let [l0, l1]: [Mat<f64>; 2] = l.try_into().expect("two blocks");
-                f.sep = Some(SepFactor { l0, l1, schur: llt, shift });
+                f.sep = Some(SepFactor { l0, l1, schur });
             }
         }
         f.valid = true;
@@ -523,8 +548,17 @@ fn factor_part<T: FactorScalar>(
     f.a_values.clear();
     f.a_values.extend(p.src.iter().map(|&k| T::from_f64(if k == SEP_SHIFT { shift } else { values[k] })));
     if let Some(k) = f.a_values.iter().position(|v| !v.is_finite()) {
-        let slot = p.src[k];
-        return Err(SolveError::OutOfRange { slot, value: if slot == SEP_SHIFT { shift } else { values[slot] } });
+        let (slot, value) = match p.src[k] {
+            SEP_SHIFT => (p.src.iter().position(|&k| k != SEP_SHIFT).map_or(0, |i| p.src[i]), shift),
+            slot => (slot, values[slot]),
+        };
+        // A value that is not a number at all fails like a lost pivot (as faer would report
+        // it); a finite one beyond T's range is out of range.
+        return Err(if value.is_finite() {
+            SolveError::OutOfRange { slot, value }
+        } else {
+            SolveError::NotPositiveDefinite { index: p.lower.col_ptr.partition_point(|&c| c <= k) - 1 }
+        });
     }
     f.values.resize(p.symbolic.len_val(), T::default());
     // The supernodal kernel zeroes its storage itself; the simplicial one is given a zeroed
@@ -634,9 +668,8 @@ struct PartFactor<T> {
 struct SepFactor {
     l0: Mat<f64>,
     l1: Mat<f64>,
-    schur: faer::linalg::solvers::Llt<f64>,
-    #[allow(dead_code)]
-    shift: f64,
+    /// Lower Cholesky factor of the Schur complement (its strict upper part is unused).
+    schur: Mat<f64>,
 }
 
 /// A numeric Cholesky factor.
@@ -673,6 +706,21 @@ impl<T: FactorScalar> CholeskyFactor<T> {
         assert!(self.valid, "solve with a failed factorization");
         let perm = &self.analysis.perm;
         assert_eq!(rhs.len(), perm.len());
+        // Scaled by a power of two (exact) to order one, so that a single-precision solve
+        // neither underflows nor overflows on very small or large right-hand sides.
+        let big = rhs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let scale = if big > 0.0 && big.is_finite() { 2f64.powi(-(big.log2().round() as i32)) } else { 1.0 };
+        if scale != 1.0 {
+            rhs.iter_mut().for_each(|v| *v *= scale);
+        }
+        self.solve_scaled(rhs);
+        if scale != 1.0 {
+            rhs.iter_mut().for_each(|v| *v /= scale);
+        }
+    }
+
+    fn solve_scaled(&self, rhs: &mut [f64]) {
+        let perm = &self.analysis.perm;
         match &self.analysis.kind {
             Kind::Whole(p) => {
                 let n = perm.len();
@@ -725,7 +773,12 @@ impl<T: FactorScalar> CholeskyFactor<T> {
                 }
             }
         }
-        sep.schur.solve_in_place(xs.as_mut());
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(sep.schur.as_ref(), xs.as_mut(), Par::Seq);
+        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+            sep.schur.transpose(),
+            xs.as_mut(),
+            Par::Seq,
+        );
         // Backward: [x_h; xs] = F_h⁻ᵀ [z_h; L_hᵀ xs].
         for (h, l) in [&sep.l0, &sep.l1].into_iter().enumerate() {
             for j in 0..ns {

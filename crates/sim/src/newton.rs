@@ -63,9 +63,12 @@ impl Default for NewtonOptions {
 /// A single-precision factor moves half the bytes and does twice the arithmetic per SIMD
 /// instruction; the step is then solved in double precision by conjugate gradients
 /// preconditioned with it, to a relative residual of [`SINGLE_STEP_TOLERANCE`] (or the Newton
-/// residual, when smaller), so the Newton iterates are those of the double-precision solve up
-/// to round-off. Where the single-precision factor fails (a pivot lost to round-off) or does
-/// not precondition well enough, that step falls back to double precision.
+/// residual, when smaller): each step solves the same system as the direct solve, to that
+/// residual (on kitten the 111 iterations and their energies, to 7 digits, were those of the
+/// direct solve). Where the single-precision factorization fails (a pivot lost to round-off,
+/// or a matrix not positive definite at that damping) or does not precondition well enough,
+/// that step falls back to double precision; after [`SINGLE_MAX_POOR`] poorly preconditioned
+/// steps the whole solve goes on in double precision.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FactorPrecision {
@@ -75,7 +78,8 @@ pub enum FactorPrecision {
     Auto,
     /// Always double precision: the step is one direct solve.
     Double,
-    /// Always a single-precision factor as the preconditioner.
+    /// A single-precision factor as the preconditioner whatever the size (with the fallbacks
+    /// above).
     Single,
 }
 
@@ -98,7 +102,7 @@ const SINGLE_PCG_MAX_ITER: usize = 20;
 
 /// Steps whose single-precision factor preconditioned too poorly, after which the solve goes
 /// on in double precision.
-const SINGLE_MAX_POOR: usize = 2;
+pub const SINGLE_MAX_POOR: usize = 2;
 
 /// One iteration, for logs and tests.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -216,9 +220,10 @@ pub fn solve(
                     chol = alt;
                     // Two threads for the factorization and the solves when the factor is
                     // large enough to pay for the separator's dense work.
+                    // (Not conditioned on the thread count: with one thread the halves run
+                    // one after the other and the results are the same.)
                     if let Some(parts) = parts
                         && opts.split_factorization
-                        && rayon::current_num_threads() >= 2
                         && chol.factor_len() >= SPLIT_MIN_FACTOR_LEN
                     {
                         match CholeskySolver::with_split_ordering(sys.pattern(), &nd, parts) {
