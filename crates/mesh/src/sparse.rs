@@ -410,7 +410,11 @@ impl CholeskySolver {
                 let global = |h: usize, r: Result<(), SolveError>| {
                     r.map_err(|e| match e {
                         SolveError::NotPositiveDefinite { index } => SolveError::NotPositiveDefinite {
-                            index: if index < s.n[h] { [0, s.n[0]][h] + index } else { s.n[0] + s.n[1] + index - s.n[h] },
+                            index: if index < s.n[h] {
+                                [0, s.n[0]][h] + index
+                            } else {
+                                s.n[0] + s.n[1] + index - s.n[h]
+                            },
                         },
                         e => e,
                     })
@@ -774,11 +778,7 @@ impl<T: FactorScalar> CholeskyFactor<T> {
             }
         }
         faer::linalg::triangular_solve::solve_lower_triangular_in_place(sep.schur.as_ref(), xs.as_mut(), Par::Seq);
-        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-            sep.schur.transpose(),
-            xs.as_mut(),
-            Par::Seq,
-        );
+        faer::linalg::triangular_solve::solve_upper_triangular_in_place(sep.schur.transpose(), xs.as_mut(), Par::Seq);
         // Backward: [x_h; xs] = F_h⁻ᵀ [z_h; L_hᵀ xs].
         for (h, l) in [&sep.l0, &sep.l1].into_iter().enumerate() {
             for j in 0..ns {
@@ -995,7 +995,8 @@ mod tests {
             v2[p2.slot(a, c)] = -1.0;
         }
         // Column by column (a wider band than row by row: faer's supernodal kernel).
-        let by_col = |js: std::ops::Range<usize>| -> Vec<usize> { js.flat_map(|j| (0..m).map(move |i| id(i, j))).collect() };
+        let by_col =
+            |js: std::ops::Range<usize>| -> Vec<usize> { js.flat_map(|j| (0..m).map(move |i| id(i, j))).collect() };
         let zero_sep: Vec<usize> = by_col(0..mid).into_iter().chain(by_col(mid..m)).collect();
         let split0 = CholeskySolver::with_split_ordering(&p2, &zero_sep, [left.len(), n - left.len()]).unwrap();
         let mut x0 = b.clone();

@@ -259,7 +259,7 @@ pub fn solve(
     let mut x_ok = x.clone();
     let mut failures = 0usize;
     let mut trial = vec![Vec3::zeros(); x.len()];
-    let mut factor: Option<Factor> = None;
+    let mut factor = Factors::default();
     let mut use_single = match opts.factor_precision {
         FactorPrecision::Double => false,
         FactorPrecision::Single => true,
@@ -315,7 +315,7 @@ pub fn solve(
         // undamped and right after a fresh factor or a successful reuse.
         let ts = Instant::now();
         let reused = match &factor {
-            Some(f) if f.is_valid() && mu == 0.0 && pcg_promising => {
+            f if f.is_valid() && mu == 0.0 && pcg_promising => {
                 let eta = r.sqrt().min(0.1);
                 match pcg(sys.pattern(), &vals, &|z: &mut [f64]| f.apply(z), &rhs, eta * gnorm, PCG_MAX_ITER, &mut step)
                 {
@@ -341,7 +341,7 @@ pub fn solve(
             let ok = 'outer: loop {
                 let ok = loop {
                     let tf = Instant::now();
-                    let res = Factor::refactor(&chol, sys.pattern(), &vals, &mut factor, single);
+                    let res = factor.refactor(&chol, sys.pattern(), &vals, single);
                     let dt = tf.elapsed().as_secs_f64();
                     stats.factorizations += 1;
                     stats.factorization_seconds += dt;
@@ -373,7 +373,7 @@ pub fn solve(
                     break false;
                 }
                 let ts = Instant::now();
-                let f = factor.as_ref().expect("factored");
+                let f = &factor;
                 if single {
                     let tol = SINGLE_STEP_TOLERANCE.min(r) * gnorm;
                     let res = pcg(
@@ -492,40 +492,60 @@ pub fn solve(
     Ok(NewtonResult { positions: x, termination, stats, history, world_gradient: last_world_gradient })
 }
 
-/// A numeric factor in double or single precision.
-enum Factor {
-    Double(CholeskyFactor<f64>),
-    Single(CholeskyFactor<f32>),
+/// The numeric factors, in double and single precision, each kept once allocated (a switch
+/// of precision for one step, and back, then reuses both buffers), and which one holds the
+/// last successful factorization.
+#[derive(Default)]
+struct Factors {
+    double: Option<CholeskyFactor<f64>>,
+    single: Option<CholeskyFactor<f32>>,
+    /// Some(true): the single-precision factor is current; Some(false): the double one.
+    current: Option<bool>,
 }
 
-impl Factor {
+impl Factors {
     fn is_valid(&self) -> bool {
-        match self {
-            Factor::Double(f) => f.is_valid(),
-            Factor::Single(f) => f.is_valid(),
+        match self.current {
+            Some(true) => self.single.as_ref().is_some_and(|f| f.is_valid()),
+            Some(false) => self.double.as_ref().is_some_and(|f| f.is_valid()),
+            None => false,
         }
     }
-    /// z ← A⁻¹ z with the factored A.
+    /// z ← A⁻¹ z with the current factor.
+    ///
+    /// # Panics
+    /// Without a current factor (callers check [`Factors::is_valid`]).
     fn apply(&self, z: &mut [f64]) {
-        match self {
-            Factor::Double(f) => f.solve_in_place(z),
-            Factor::Single(f) => f.solve_in_place(z),
+        match self.current {
+            Some(true) => self.single.as_ref().expect("current").solve_in_place(z),
+            Some(false) => self.double.as_ref().expect("current").solve_in_place(z),
+            None => panic!("no current factor"),
         }
     }
-    /// Factor `vals` into `slot`, reusing its buffers when the precision matches.
+    /// Factor `vals` in the given precision, reusing that precision's buffers.
     fn refactor(
+        &mut self,
         chol: &CholeskySolver,
         pattern: &SymmetricPattern,
         vals: &[f64],
-        slot: &mut Option<Factor>,
         single: bool,
     ) -> Result<(), SolveError> {
-        match (single, slot) {
-            (true, Some(Factor::Single(f))) => chol.refactor(pattern, vals, f),
-            (false, Some(Factor::Double(f))) => chol.refactor(pattern, vals, f),
-            (true, slot) => chol.factor_in(pattern, vals).map(|f| *slot = Some(Factor::Single(f))),
-            (false, slot) => chol.factor_in(pattern, vals).map(|f| *slot = Some(Factor::Double(f))),
+        self.current = None;
+        let res = if single {
+            match &mut self.single {
+                Some(f) => chol.refactor(pattern, vals, f),
+                slot => chol.factor_in(pattern, vals).map(|f| *slot = Some(f)),
+            }
+        } else {
+            match &mut self.double {
+                Some(f) => chol.refactor(pattern, vals, f),
+                slot => chol.factor_in(pattern, vals).map(|f| *slot = Some(f)),
+            }
+        };
+        if res.is_ok() {
+            self.current = Some(single);
         }
+        res
     }
 }
 
