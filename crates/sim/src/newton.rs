@@ -88,12 +88,13 @@ pub enum FactorPrecision {
 /// under 1M) gain nothing against the extra conjugate-gradient iterations.
 pub const SINGLE_MIN_FACTOR_LEN: usize = 2_000_000;
 
-/// Factor size from which the factorization is split over two threads.
+/// Factor size from which the factorization is split over two threads (measured: spot, 3.8M
+/// entries, 1.10 → 0.98 s; kitten, 21.7M, 33.6 → 25.6 s).
 pub const SPLIT_MIN_FACTOR_LEN: usize = 2_000_000;
 
 /// Relative residual to which a step is solved with a single-precision factor. Looser steps
 /// change kitten's Newton path (1e-5: 144 iterations, 1e-3: 131, against 111 with exact
-/// steps); at 1e-7 the path and count are those of the direct solve.
+/// steps); at 1e-7 kitten's path and count were those of the direct solve.
 pub const SINGLE_STEP_TOLERANCE: f64 = 1e-7;
 
 /// Conjugate-gradient iterations allowed with a single-precision factor before the step is
@@ -351,9 +352,8 @@ pub fn solve(
                     match res {
                         Ok(()) => break true,
                         // A pivot lost in single precision, or a value out of its range:
-                        // this step in double precision,
-                        // at the same damping (the damping path stays that of the direct
-                        // solve).
+                        // this step in double precision, at the same damping (the damping
+                        // path stays that of the direct solve).
                         Err(SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }) if single => {
                             stats.single_fallbacks += 1;
                             single = false;
