@@ -1,9 +1,13 @@
 //! Sparse symmetric systems: a fixed pattern with value slots (assemble by index, no triplet
 //! sorting per Newton step) and a sparse Cholesky whose symbolic analysis (AMD or a given
 //! ordering such as [`crate::ordering::nested_dissection`], supernodes) is computed once and
-//! reused for every numeric factorization.
+//! reused for every numeric factorization, in double or single precision ([`FactorScalar`]),
+//! optionally split over two threads along a nested dissection's top separator
+//! ([`CholeskySolver::with_split_ordering`]).
 //!
-//! Backed by `faer`'s supernodal LLᵀ.
+//! Backed by `faer`'s supernodal LLᵀ. The split (two sparse factorizations joined by a dense
+//! Schur complement) is written here because faer's numeric factorization parallelizes only
+//! inside its dense kernels, which was slower than one thread on these systems.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
