@@ -368,20 +368,8 @@ mod tests {
 
     /// An nx × ny grid graph, rows `dy` apart, columns 1 apart: positions and edges.
     fn grid_graph(nx: usize, ny: usize, dy: f64) -> (Vec<Vec3>, Vec<(usize, usize)>) {
-        let id = |i: usize, j: usize| j * nx + i;
         let positions = (0..ny).flat_map(|j| (0..nx).map(move |i| Vec3::new(i as f64, dy * j as f64, 0.0))).collect();
-        let mut edges = Vec::new();
-        for j in 0..ny {
-            for i in 0..nx {
-                if i + 1 < nx {
-                    edges.push((id(i, j), id(i + 1, j)));
-                }
-                if j + 1 < ny {
-                    edges.push((id(i, j), id(i, j + 1)));
-                }
-            }
-        }
-        (positions, edges)
+        (positions, crate::sparse::tests::grid_edges(nx, ny, false))
     }
 
     #[test]
