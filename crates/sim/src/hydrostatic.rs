@@ -20,7 +20,6 @@
 
 use crate::element::{Mat9, Vec9};
 use clothcast_mesh::Vec3;
-use nalgebra::Matrix3;
 
 /// Value, gradient and Hessian of a function of three variables.
 #[derive(Clone, Copy, Debug)]
@@ -123,13 +122,25 @@ pub fn mean_sq_positive_depth(d: [f64; 3]) -> D3 {
     };
     match d.iter().filter(|&&x| x > 0.0).count() {
         0 => D3::cst(0.0),
-        3 => full(&v),
+        3 => full_wet(d),
         1 => corner(&v, (0..3).find(|&i| d[i] > 0.0).expect("one wet corner")),
         _ => {
             let dry = (0..3).find(|&i| d[i] <= 0.0).expect("one dry corner");
             full(&v) - corner(&v, dry)
         }
     }
+}
+
+/// [`mean_sq_positive_depth`] of a fully wetted face, `(Σ dᵢ² + Σ dᵢdⱼ)/6`, in closed form:
+/// the same operations, in the same order, as the dual-number evaluation (so the same bits;
+/// a test checks it), without its 3×3 Hessian products. Nearly every face is fully wetted.
+fn full_wet(d: [f64; 3]) -> D3 {
+    let sixth = 1.0 / 6.0;
+    let [a, b, c] = d;
+    let v = (a * a + b * b + c * c + a * b + b * c + c * a) * sixth;
+    let g = [(a + a + b + c) * sixth, (b + b + a + c) * sixth, (c + c + b + a) * sixth];
+    let (two, one) = (2.0 * sixth, sixth);
+    D3 { v, g, h: [[two, one, one], [one, two, one], [one, one, two]] }
 }
 
 /// Mean of `max(d,0)` over the triangle (value only; for the liquid volume).
@@ -196,6 +207,15 @@ impl Hydrostatic {
 
     /// Pressure work `W_f` of a face with gradient and Hessian (None if the face is dry).
     pub fn work_derivatives(&self, x: &[Vec3; 3]) -> Option<(f64, Vec9, Mat9)> {
+        let mut h = Mat9::zeros();
+        self.work_derivatives_into(x, Some((&mut h, -1.0))).map(|(w, g)| (w, g, h))
+    }
+
+    /// Pressure work `W_f` of a face and its gradient (None if the face is dry); with
+    /// `hessian = Some((h, s))`, also `h ← h − s·∇²W_f`, in place, entry by entry: the
+    /// assembly's hot loop, without the 9×9 temporaries of the matrix expression
+    /// `(S_h J + s_g J_gᵀ + J_g s_gᵀ + J_h s) ρg/4` (whose rounding it reproduces).
+    pub fn work_derivatives_into(&self, x: &[Vec3; 3], hessian: Option<(&mut Mat9, f64)>) -> Option<(f64, Vec9)> {
         let d = x.map(|p| self.depth(&p));
         if d.iter().all(|&v| v <= 0.0) {
             return None;
@@ -205,18 +225,22 @@ impl Hydrostatic {
         let c = 0.25 * self.rho_g;
         // ∂d_a/∂x_a = −up, so ∂J/∂x_a = −J_a up and ∂²J/∂x_a∂x_b = J_ab up upᵀ.
         let mut jg = Vec9::zeros();
-        let mut jh = Mat9::zeros();
-        let uu: Matrix3<f64> = self.up * self.up.transpose();
         for a in 0..3 {
             jg.fixed_rows_mut::<3>(3 * a).copy_from(&(-self.up * j.g[a]));
-            for b in 0..3 {
-                jh.fixed_view_mut::<3, 3>(3 * a, 3 * b).copy_from(&(uu * j.h[a][b]));
-            }
         }
         let w = c * s * j.v;
         let g = (sg * j.v + jg * s) * c;
-        let h = (sh * j.v + sg * jg.transpose() + jg * sg.transpose() + jh * s) * c;
-        Some((w, g, h))
+        if let Some((h, scale)) = hessian {
+            let up = &self.up;
+            for col in 0..9 {
+                for row in 0..9 {
+                    let jh = (up[row % 3] * up[col % 3]) * j.h[row / 3][col / 3];
+                    let wh = (sh[(row, col)] * j.v + sg[row] * jg[col] + jg[row] * sg[col] + jh * s) * c;
+                    h[(row, col)] -= wh * scale;
+                }
+            }
+        }
+        Some((w, g))
     }
 
     /// Liquid volume enclosed below the level by an outward-oriented face (its contribution).
@@ -261,6 +285,30 @@ mod tests {
         fd_check(&h, [Vec3::new(0.0, 0.0, 0.1), Vec3::new(0.3, 0.05, 0.2), Vec3::new(0.1, 0.4, 0.15)]);
         fd_check(&h, [Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.05, 0.8), Vec3::new(0.1, 0.4, 0.9)]);
         fd_check(&h, [Vec3::new(0.0, 0.0, 0.2), Vec3::new(0.3, 0.05, 0.3), Vec3::new(0.1, 0.4, 0.9)]);
+    }
+
+    #[test]
+    fn closed_form_of_the_wet_face_is_the_dual_number_evaluation() {
+        // Same bits as the generic dual-number sum, which it replaces.
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..1000 {
+            let d = [rnd() * 0.7, rnd() * 1e-3, rnd() * 50.0];
+            let v = [D3::var(d[0], 0), D3::var(d[1], 1), D3::var(d[2], 2)];
+            let dual = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[0] * v[1] + v[1] * v[2] + v[2] * v[0])
+                * D3::cst(1.0 / 6.0);
+            let closed = full_wet(d);
+            assert_eq!(closed.v.to_bits(), dual.v.to_bits());
+            for i in 0..3 {
+                assert_eq!(closed.g[i].to_bits(), dual.g[i].to_bits());
+                for j in 0..3 {
+                    assert_eq!(closed.h[i][j].to_bits(), dual.h[i][j].to_bits());
+                }
+            }
+        }
     }
 
     #[test]

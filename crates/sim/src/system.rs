@@ -33,20 +33,35 @@ const NO_SLOT: u32 = u32::MAX;
 const CHUNK: usize = 2048;
 /// Value slots per task of the parallel Hessian gather.
 const GATHER_CHUNK: usize = 4096;
+/// Entries of a face's 9×9 Hessian that reach the lower triangle of the global matrix: at
+/// most 45 (the lower triangle of its 9 dofs, relabelled; fewer when some are constrained).
+const PICKS: usize = 45;
+/// Unused pick.
+const NO_PICK: u8 = u8::MAX;
 /// Below this many vertices AMD alone is as good as nested dissection (fertility, 4.5k
 /// vertices: AMD's factor is the faster one), so the second ordering is not computed.
 const ND_MIN_VERTICES: usize = 5000;
 /// Nested-dissection parts of at most this many vertices are ordered by AMD.
 const ND_LEAF: usize = 64;
 
-/// Per-face evaluation results.
+/// A face as the assembly's per-face loop reads it, in storage order.
+#[derive(Clone, Copy)]
+struct StoredFace {
+    face: FaceId,
+    vertices: [VertexId; 3],
+    element: Element,
+    /// The entries of its 9×9 Hessian (column-major index) kept in `hess`, the ones that
+    /// land in the global lower triangle ([`NO_PICK`] where unused).
+    pick: [u8; PICKS],
+}
+
+/// Per-face evaluation results (the Hessian's picked entries are in `System::hess`).
 #[derive(Clone, Copy)]
 struct FaceEval {
     energy: f64,
     magnitude: f64,
     grad: Vec9,
     ext_grad: Vec9,
-    hess: Mat9,
 }
 
 /// The discretized problem on a fixed mesh.
@@ -68,12 +83,23 @@ pub struct System<'a> {
     /// Per vertex: the slots of its 3×3 diagonal block (for contact).
     vertex_slots: Vec<[u32; 9]>,
     diag_slots: Vec<usize>,
-    /// Gather map of the Hessian assembly: the element-matrix entries summed into value slot
-    /// `s` are `gather_src[gather_start[s]..gather_start[s + 1]]`, each `face · 81 + entry`
-    /// (entry column-major in the face's 9×9 matrix), in face order.
+    /// The faces in storage order (see `face_store`), with what the per-face evaluation reads.
+    stored: Vec<StoredFace>,
+    /// Gather map of the Hessian assembly: the picked entries summed into value slot `s` are
+    /// `hess[gather_src[k]]` for `k` in `gather_start[s]..gather_start[s + 1]`, in face order.
     gather_start: Vec<usize>,
-    gather_src: Vec<usize>,
+    gather_src: Vec<u32>,
+    /// Per-face results, in storage order (see `face_store`).
     buf: Vec<FaceEval>,
+    /// Picked Hessian entries, [`PICKS`] per face, in storage order (a compact array the
+    /// gather reads; the full 9×9 matrices would be twice the memory traffic).
+    hess: Vec<f64>,
+    /// Storage position of each face. Faces are stored sorted by their lowest-numbered vertex, so that
+    /// the value slots of one vertex's rows, summed one after the other, read nearby entries
+    /// of `hess` (kitten's gather was bound by the latency of those reads), and the per-face
+    /// loop reads the positions in about vertex order. Any order gives the same sums: each
+    /// slot still sums its entries in face order, and so does the gradient.
+    face_store: Vec<u32>,
 }
 
 /// One evaluation on free dofs.
@@ -139,22 +165,27 @@ impl<'a> System<'a> {
             }
         }
         let pattern = SymmetricPattern::from_entries(n_dofs, entries);
-        let face_slots: Vec<[u32; 81]> = mesh
+        // Per face, the picked entries and the value slot each one is summed into.
+        let (face_pick, face_slots): (Vec<[u8; PICKS]>, Vec<[u32; PICKS]>) = mesh
             .face_ids()
             .map(|f| {
                 let vs = mesh.face_vertices(f);
-                let mut s = [NO_SLOT; 81];
+                let (mut pick, mut slot) = ([NO_PICK; PICKS], [NO_SLOT; PICKS]);
+                let mut c = 0;
                 for p in 0..9 {
                     for q in 0..9 {
                         let (i, j) = (dof[vs[p / 3].idx()][p % 3], dof[vs[q / 3].idx()][q % 3]);
                         if i != u32::MAX && j != u32::MAX && i >= j {
-                            s[9 * p + q] = pattern.slot(i as usize, j as usize) as u32;
+                            // Distinct corners have distinct dofs: at most 45 pairs i ≥ j.
+                            pick[c] = (9 * q + p) as u8;
+                            slot[c] = pattern.slot(i as usize, j as usize) as u32;
+                            c += 1;
                         }
                     }
                 }
-                s
+                (pick, slot)
             })
-            .collect();
+            .unzip();
         let vertex_slots = (0..nv)
             .map(|v| {
                 let mut s = [NO_SLOT; 9];
@@ -170,10 +201,30 @@ impl<'a> System<'a> {
             })
             .collect();
         let diag_slots = pattern.diagonal_slots();
-        let (gather_start, gather_src) = gather_map(&face_slots, pattern.nnz());
+        let mut store_face: Vec<u32> = (0..mesh.n_faces() as u32).collect();
+        store_face.sort_by_key(|&f| {
+            let vs = mesh.face_vertices(FaceId::new(f as usize));
+            (vs.iter().map(|v| v.idx()).min(), f)
+        });
+        let mut face_store = vec![0u32; mesh.n_faces()];
+        for (p, &f) in store_face.iter().enumerate() {
+            face_store[f as usize] = p as u32;
+        }
+        let (gather_start, gather_src) = gather_map(&face_slots, &face_store, pattern.nnz());
+        let stored = store_face
+            .iter()
+            .map(|&f| {
+                let face = FaceId::new(f as usize);
+                StoredFace {
+                    face,
+                    vertices: mesh.face_vertices(face),
+                    element: elements[f as usize],
+                    pick: face_pick[f as usize],
+                }
+            })
+            .collect();
         let volume_center = mesh.bbox().center();
-        let zero =
-            FaceEval { energy: 0.0, magnitude: 0.0, grad: Vec9::zeros(), ext_grad: Vec9::zeros(), hess: Mat9::zeros() };
+        let zero = FaceEval { energy: 0.0, magnitude: 0.0, grad: Vec9::zeros(), ext_grad: Vec9::zeros() };
         Self {
             mesh,
             material,
@@ -189,9 +240,12 @@ impl<'a> System<'a> {
             pattern,
             vertex_slots,
             diag_slots,
+            stored,
             gather_start,
             gather_src,
             buf: vec![zero; mesh.n_faces()],
+            hess: vec![0.0; mesh.n_faces() * PICKS],
+            face_store,
         }
     }
 
@@ -354,23 +408,19 @@ impl<'a> System<'a> {
         let mesh = self.mesh;
         let material = self.material;
         let loads = &self.loads;
-        let elements = &self.elements;
         let center = self.volume_center;
         let frames = &self.frames;
-        self.buf.par_iter_mut().enumerate().for_each(|(fi, out)| {
-            let f = FaceId::new(fi);
-            let p = mesh.face_vertices(f).map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = elements[fi].evaluate(material, f, &p, true);
+        self.buf.par_iter_mut().zip(self.hess.par_chunks_mut(PICKS)).zip(&self.stored).for_each(|((out, hout), sf)| {
+            let f = sf.face;
+            let p = sf.vertices.map(|v| x[v.idx()]);
+            let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, true);
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &loads.hydrostatic
-                && let Some((w, wg, wh)) = hy.work_derivatives(&p)
+                && let Some((w, wg)) = hy.work_derivatives_into(&p, hessian.then_some((&mut h, s)))
             {
                 ext += w;
                 eg += wg;
-                if hessian {
-                    h -= wh * s;
-                }
             }
             if loads.head_pressure != 0.0 {
                 let (v, vg, vh) = face_volume(&p, &center);
@@ -385,9 +435,15 @@ impl<'a> System<'a> {
             e -= s * ext;
             g -= eg * s;
             if hessian {
-                h = rotate_block9(frames, &h, &mesh.face_vertices(f));
+                if let Some(r) = rotate_block9(frames, &h, &sf.vertices) {
+                    h = r;
+                }
+                let hs = h.as_slice();
+                for (o, &k) in hout.iter_mut().zip(&sf.pick) {
+                    *o = if k == NO_PICK { 0.0 } else { hs[k as usize] };
+                }
             }
-            *out = FaceEval { energy: e, magnitude, grad: g, ext_grad: eg, hess: h };
+            *out = FaceEval { energy: e, magnitude, grad: g, ext_grad: eg };
         });
         // Sequential, deterministic reduction.
         let nv = mesh.n_vertices();
@@ -395,7 +451,8 @@ impl<'a> System<'a> {
         let mut extf = vec![Vec3::zeros(); nv];
         let mut energy = 0.0;
         let mut energy_magnitude = 0.0;
-        for (fi, r) in self.buf.iter().enumerate() {
+        for (fi, &sp) in self.face_store.iter().enumerate() {
+            let r = &self.buf[sp as usize];
             energy += r.energy;
             energy_magnitude += r.magnitude;
             let vs = mesh.face_vertices(FaceId::new(fi));
@@ -433,13 +490,13 @@ impl<'a> System<'a> {
             // Parallel over value slots, each summed in face order: deterministic, and the
             // same sums as a sequential scatter.
             let mut vals = vec![0.0; self.pattern.nnz()];
-            let (buf, start, src) = (&self.buf, &self.gather_start, &self.gather_src);
+            let (hess, start, src) = (&self.hess, &self.gather_start, &self.gather_src);
             vals.par_chunks_mut(GATHER_CHUNK).enumerate().for_each(|(c, out)| {
                 for (i, v) in out.iter_mut().enumerate() {
                     let slot = c * GATHER_CHUNK + i;
                     let mut acc = 0.0;
                     for &k in &src[start[slot]..start[slot + 1]] {
-                        acc += buf[k / 81].hess.as_slice()[k % 81];
+                        acc += hess[k as usize];
                     }
                     *v = acc;
                 }
@@ -500,10 +557,10 @@ impl<'a> System<'a> {
     }
 }
 
-/// A face's 9×9 matrix in its vertices' constraint frames.
-fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[VertexId; 3]) -> Mat9 {
+/// A face's 9×9 matrix in its vertices' constraint frames (None when no vertex has one: unchanged).
+fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[VertexId; 3]) -> Option<Mat9> {
     if vs.iter().all(|v| frames[v.idx()].0.is_none()) {
-        return *h;
+        return None;
     }
     let mut r = Mat9::identity();
     for (a, v) in vs.iter().enumerate() {
@@ -511,13 +568,16 @@ fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[Verte
             r.fixed_view_mut::<3, 3>(3 * a, 3 * a).copy_from(&m);
         }
     }
-    r.transpose() * h * r
+    Some(r.transpose() * h * r)
 }
 
-/// The assembly's gather map (see [`System`]): for every value slot, the element-matrix entries
-/// summed into it, in face order. Entry `9p + q` of `face_slots` (row p, column q) is read at
-/// column-major index `9q + p`.
-fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<usize>, Vec<usize>) {
+/// The assembly's gather map (see [`System`]): for every value slot, the picked entries
+/// summed into it (index `store · PICKS + pick`, `store` the face's storage position), in face
+/// order.
+///
+/// # Panics
+/// With 95M faces or more (the indices are `u32`; such a mesh would not fit in memory anyway).
+fn gather_map(face_slots: &[[u32; PICKS]], face_store: &[u32], nnz: usize) -> (Vec<usize>, Vec<u32>) {
     let mut count = vec![0usize; nnz + 1];
     for slots in face_slots {
         for &s in slots.iter().filter(|&&s| s != NO_SLOT) {
@@ -528,12 +588,12 @@ fn gather_map(face_slots: &[[u32; 81]], nnz: usize) -> (Vec<usize>, Vec<usize>) 
         count[i + 1] += count[i];
     }
     let start = count.clone();
-    let mut src = vec![0usize; start[nnz]];
+    let mut src = vec![0u32; start[nnz]];
     for (fi, slots) in face_slots.iter().enumerate() {
-        for (k, &s) in slots.iter().enumerate() {
+        for (c, &s) in slots.iter().enumerate() {
             if s != NO_SLOT {
-                let (p, q) = (k / 9, k % 9);
-                src[count[s as usize]] = fi * 81 + 9 * q + p;
+                src[count[s as usize]] =
+                    u32::try_from(face_store[fi] as usize * PICKS + c).expect("fewer than 95M faces");
                 count[s as usize] += 1;
             }
         }
