@@ -166,10 +166,10 @@ impl<'a> System<'a> {
         }
         let pattern = SymmetricPattern::from_entries(n_dofs, entries);
         // Per face, the picked entries and the value slot each one is summed into.
-        let (face_pick, face_slots): (Vec<[u8; PICKS]>, Vec<[u32; PICKS]>) = mesh
-            .face_ids()
-            .map(|f| {
-                let vs = mesh.face_vertices(f);
+        let (face_pick, face_slots): (Vec<[u8; PICKS]>, Vec<[u32; PICKS]>) = (0..mesh.n_faces())
+            .into_par_iter()
+            .map(|fi| {
+                let vs = mesh.face_vertices(FaceId::new(fi));
                 let (mut pick, mut slot) = ([NO_PICK; PICKS], [NO_SLOT; PICKS]);
                 let mut c = 0;
                 for p in 0..9 {
