@@ -203,6 +203,8 @@ struct Analysis {
     kind: Kind,
 }
 
+// One per solver: the size of the variants does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 enum Kind {
     Whole(Part),
@@ -650,6 +652,8 @@ pub trait FactorScalar:
     + std::ops::Sub<Output = Self>
     + std::ops::Mul<Output = Self>
     + std::ops::Div<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
 {
     /// Rounded from f64 (infinite when out of range).
     fn from_f64(v: f64) -> Self;
@@ -873,14 +877,14 @@ pub fn supernodal_forward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>,
             let xj = xs[j] / col[j];
             xs[j] = xj;
             for (xi, &l) in xs[j + 1..].iter_mut().zip(&col[j + 1..size]) {
-                *xi = *xi - l * xj;
+                *xi -= l * xj;
             }
             for (b, &l) in below.iter_mut().zip(&col[size..]) {
-                *b = *b + l * xj;
+                *b += l * xj;
             }
         }
         for (&i, &b) in pattern.iter().zip(&below) {
-            x[i] = x[i] - b;
+            x[i] -= b;
         }
     }
 }
