@@ -300,7 +300,8 @@ pub fn solve(
         }
         stats.iterations += 1;
         let mut vals = ev.hessian.expect("requested");
-        let base = (mu > 0.0).then(|| vals.clone());
+        // The undamped diagonal (damping changes only the diagonal), to re-damp from.
+        let base: Vec<f64> = sys.diagonal_slots().iter().map(|&slot| vals[slot]).collect();
         let add_damping = |vals: &mut [f64], mu: f64| {
             for (i, &slot) in sys.diagonal_slots().iter().enumerate() {
                 vals[slot] += mu * d_scale[i];
@@ -336,7 +337,6 @@ pub fn solve(
         };
         stats.solve_seconds += ts.elapsed().as_secs_f64();
         if !reused {
-            let base = base.unwrap_or_else(|| vals.clone());
             let mut single = use_single;
             // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
@@ -363,7 +363,9 @@ pub fn solve(
                             if mu > 1e12 {
                                 break false;
                             }
-                            vals.copy_from_slice(&base);
+                            for (&slot, &b) in sys.diagonal_slots().iter().zip(&base) {
+                                vals[slot] = b;
+                            }
                             add_damping(&mut vals, mu);
                         }
                         Err(e) => return Err(e),
@@ -418,6 +420,10 @@ pub fn solve(
             }
             pcg_promising = true;
         }
+
+        // The step is solved (the factor holds its own copy of the values): the Hessian's
+        // buffer goes back to the system for the next assembly.
+        sys.recycle_hessian(vals);
 
         // Backtracking line search on Π.
         let tl = Instant::now();
