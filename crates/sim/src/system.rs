@@ -97,6 +97,10 @@ pub struct System<'a> {
     /// A Hessian value buffer handed back by the caller ([`System::recycle_hessian`]), reused
     /// by the next assembly (kitten's is 13.6 MB: a fresh one each time costs page faults).
     spare_hessian: Option<Vec<f64>>,
+    /// Per vertex, its corners `store · 3 + corner` in face order: `corners[corner_start[v]..
+    /// corner_start[v + 1]]` (for the forces' reduction).
+    corner_start: Vec<u32>,
+    corners: Vec<u32>,
     /// Storage position of each face. Faces are stored sorted by their lowest-numbered vertex, so that
     /// the value slots of one vertex's rows, summed one after the other, read nearby entries
     /// of `hess` (kitten's gather was bound by the latency of those reads), and the per-face
@@ -214,6 +218,23 @@ impl<'a> System<'a> {
             face_store[f as usize] = p as u32;
         }
         let (gather_start, gather_src) = gather_map(&face_slots, &face_store, pattern.nnz());
+        let mut corner_start = vec![0u32; nv + 1];
+        for f in mesh.face_ids() {
+            for v in mesh.face_vertices(f) {
+                corner_start[v.idx() + 1] += 1;
+            }
+        }
+        for v in 0..nv {
+            corner_start[v + 1] += corner_start[v];
+        }
+        let mut next = corner_start.clone();
+        let mut corners = vec![0u32; 3 * mesh.n_faces()];
+        for f in mesh.face_ids() {
+            for (a, v) in mesh.face_vertices(f).into_iter().enumerate() {
+                corners[next[v.idx()] as usize] = 3 * face_store[f.idx()] + a as u32;
+                next[v.idx()] += 1;
+            }
+        }
         let stored = store_face
             .iter()
             .map(|&f| {
@@ -249,6 +270,8 @@ impl<'a> System<'a> {
             buf: vec![zero; mesh.n_faces()],
             hess: vec![0.0; mesh.n_faces() * PICKS],
             face_store,
+            corner_start,
+            corners,
             spare_hessian: None,
         }
     }
@@ -454,22 +477,26 @@ impl<'a> System<'a> {
             }
             *out = FaceEval { energy: e, magnitude, grad: g, ext_grad: eg };
         });
-        // Sequential, deterministic reduction.
+        // Deterministic reduction: the energy summed in face order; each vertex's forces
+        // summed over its corners in face order, vertices in parallel.
         let nv = mesh.n_vertices();
-        let mut grad = vec![Vec3::zeros(); nv];
-        let mut extf = vec![Vec3::zeros(); nv];
         let mut energy = 0.0;
         let mut energy_magnitude = 0.0;
-        for (fi, &sp) in self.face_store.iter().enumerate() {
+        for &sp in &self.face_store {
             let r = &self.buf[sp as usize];
             energy += r.energy;
             energy_magnitude += r.magnitude;
-            let vs = mesh.face_vertices(FaceId::new(fi));
-            for a in 0..3 {
-                grad[vs[a].idx()] += r.grad.fixed_rows::<3>(3 * a);
-                extf[vs[a].idx()] += r.ext_grad.fixed_rows::<3>(3 * a);
-            }
         }
+        let mut grad = vec![Vec3::zeros(); nv];
+        let mut extf = vec![Vec3::zeros(); nv];
+        let (buf, start, corners) = (&self.buf, &self.corner_start, &self.corners);
+        grad.par_iter_mut().zip(extf.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(|(v, (g, e))| {
+            for &c in &corners[start[v] as usize..start[v + 1] as usize] {
+                let (r, a) = (&buf[c as usize / 3], c as usize % 3);
+                *g += r.grad.fixed_rows::<3>(3 * a);
+                *e += r.ext_grad.fixed_rows::<3>(3 * a);
+            }
+        });
         if let Some((_, up)) = loads.self_weight {
             for v in 0..nv {
                 let w = self.vertex_mass_weight[v];
