@@ -8,12 +8,12 @@
 //! Backed by `faer`'s supernodal LLᵀ. The split (two sparse factorizations joined by a dense
 //! Schur complement) is written here because faer's numeric factorization parallelizes only
 //! inside its dense kernels, which was slower than one thread on these systems. So is the
-//! forward triangular solve with a supernodal factor ([`supernodal_forward`]): faer's calls a
+//! forward triangular solve with a supernodal factor (`supernodal_forward`): faer's calls a
 //! dense triangular solve and a matrix product per supernode, built for many right-hand
 //! sides; a Newton step (or a conjugate-gradient iteration) has one, and streaming each
 //! column of the factor once, in ascending memory order, took kitten's two-thread
 //! single-precision forward sweep from 7–9 ms to 3.3–4.9 ms. The backward sweep stays faer's
-//! ([`supernodal_backward`]).
+//! (`supernodal_backward`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
@@ -865,7 +865,8 @@ fn column<'a, T: FactorScalar>(val: MatRef<'a, T>, j: usize) -> &'a [T] {
 
 /// x ← L⁻¹ x for a supernodal factor L and one right-hand side: each column read once, its
 /// diagonal-block part and its below-block part in the same pass.
-pub fn supernodal_forward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>, x: &mut [T]) {
+pub(crate) fn supernodal_forward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>, x: &mut [T]) {
+    assert_eq!(x.len(), llt.symbolic().nrows(), "right-hand side of the factor's size");
     let mut below: Vec<T> = Vec::new();
     for s in 0..llt.symbolic().n_supernodes() {
         let (start, size, pattern, val) = supernode_columns(llt, s);
@@ -893,7 +894,7 @@ pub fn supernodal_forward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>,
 /// products, in its wider SIMD kernels, were faster than one pass over the columns here: the
 /// backward sweep visits the supernodes in descending memory order, which the hardware does
 /// not prefetch, and is bound by the products rather than by the stream).
-pub fn supernodal_backward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>, x: &mut [T], par: Par) {
+pub(crate) fn supernodal_backward<T: FactorScalar>(llt: &SupernodalLltRef<'_, usize, T>, x: &mut [T], par: Par) {
     let n = x.len();
     let m = MatMut::from_column_major_slice_mut(x, n, 1);
     let mut mem = MemBuffer::new(llt.symbolic().solve_in_place_scratch::<T>(1, par));

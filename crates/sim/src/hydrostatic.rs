@@ -112,9 +112,6 @@ impl std::ops::Div for D3 {
 /// derivatives in the three corner depths.
 pub fn mean_sq_positive_depth(d: [f64; 3]) -> D3 {
     let v = [D3::var(d[0], 0), D3::var(d[1], 1), D3::var(d[2], 2)];
-    let full = |v: &[D3; 3]| {
-        (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[0] * v[1] + v[1] * v[2] + v[2] * v[0]) * D3::cst(1.0 / 6.0)
-    };
     // One corner i on one side, j and k on the other: ∫ of (sign·d)⁺² = (sign·d_i)⁴/(6 Δij Δik).
     let corner = |v: &[D3; 3], i: usize| {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
@@ -131,9 +128,14 @@ pub fn mean_sq_positive_depth(d: [f64; 3]) -> D3 {
     }
 }
 
+/// `(Σ dᵢ² + Σ dᵢdⱼ)/6` in dual numbers: the mean of d² over a wetted triangle.
+fn full(v: &[D3; 3]) -> D3 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[0] * v[1] + v[1] * v[2] + v[2] * v[0]) * D3::cst(1.0 / 6.0)
+}
+
 /// [`mean_sq_positive_depth`] of a fully wetted face, `(Σ dᵢ² + Σ dᵢdⱼ)/6`, in closed form:
-/// the same operations, in the same order, as the dual-number evaluation (so the same bits;
-/// a test checks it), without its 3×3 Hessian products. Nearly every face is fully wetted.
+/// the same non-trivial operations, in the same order, as the dual-number evaluation [`full`]
+/// (which also adds and multiplies zeros), so the same bits (a test checks it), without its 3×3 Hessian products. Nearly every face is fully wetted.
 fn full_wet(d: [f64; 3]) -> D3 {
     let sixth = 1.0 / 6.0;
     let [a, b, c] = d;
@@ -298,8 +300,7 @@ mod tests {
         for _ in 0..1000 {
             let d = [rnd() * 0.7, rnd() * 1e-3, rnd() * 50.0];
             let v = [D3::var(d[0], 0), D3::var(d[1], 1), D3::var(d[2], 2)];
-            let dual = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[0] * v[1] + v[1] * v[2] + v[2] * v[0])
-                * D3::cst(1.0 / 6.0);
+            let dual = full(&v);
             let closed = full_wet(d);
             assert_eq!(closed.v.to_bits(), dual.v.to_bits());
             for i in 0..3 {

@@ -249,6 +249,7 @@ pub fn solve(
     let d_scale: Vec<f64> = {
         let h = sys.evaluate(&x, 1.0, true).hessian.expect("requested");
         let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| h[s].abs()).collect();
+        sys.recycle_hessian(h);
         let mut sorted = diag.clone();
         sorted.sort_by(f64::total_cmp);
         let median = sorted[sorted.len() / 2].max(f64::MIN_POSITIVE);
