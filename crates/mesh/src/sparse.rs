@@ -12,7 +12,7 @@
 //! dense triangular solve and a matrix product per supernode, built for many right-hand
 //! sides; a Newton step (or a conjugate-gradient iteration) has one, and streaming each
 //! column of the factor once, in ascending memory order, took kitten's two-thread
-//! single-precision forward sweep from 7–9 ms to 3.3–4.9 ms. The backward sweep stays faer's
+//! single-precision forward sweep from 7–9 ms to 3.3–5.4 ms. The backward sweep stays faer's
 //! (`supernodal_backward`).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -536,21 +536,9 @@ fn pattern_from_keyed(n: usize, mut keyed: Vec<(u64, usize)>) -> (SymmetricPatte
 /// Faer's identity-ordered analysis, which reads the upper triangle: the transpose.
 fn analyse(lower: &SymmetricPattern) -> Result<SymbolicCholesky<usize>, SolveError> {
     let n = lower.n;
-    let mut up_ptr = vec![0usize; n + 1];
-    for &r in &lower.row_idx {
-        up_ptr[r + 1] += 1;
-    }
-    for c in 0..n {
-        up_ptr[c + 1] += up_ptr[c];
-    }
-    let mut next = up_ptr.clone();
-    let mut up_rows = vec![0usize; lower.row_idx.len()];
-    for c in 0..n {
-        for &r in &lower.row_idx[lower.col_ptr[c]..lower.col_ptr[c + 1]] {
-            up_rows[next[r]] = c;
-            next[r] += 1;
-        }
-    }
+    let (up_ptr, up_rows) = crate::util::group_by_key(n, || {
+        (0..n).flat_map(move |c| lower.row_idx[lower.col_ptr[c]..lower.col_ptr[c + 1]].iter().map(move |&r| (r, c)))
+    });
     let upper = SymbolicSparseColMatRef::new_checked(n, n, &up_ptr, None, &up_rows);
     factorize_symbolic_cholesky(upper, Side::Upper, SymmetricOrdering::Identity, Default::default())
         .map_err(|e| SolveError::Internal(format!("{e:?}")))

@@ -1,4 +1,5 @@
-//! Small shared utilities: union–find, a seeded RNG, edge keys, a min-heap entry.
+//! Small shared utilities: union–find, a seeded RNG, edge keys, a min-heap entry, grouping by
+//! key into compressed rows.
 
 /// Disjoint-set forest with path halving and union by size.
 #[derive(Clone, Debug)]
@@ -117,9 +118,43 @@ impl SplitMix64 {
     }
 }
 
+/// Values grouped by key into compressed rows: `(start, values)` with the values of key `k` at
+/// `values[start[k]..start[k + 1]]`, each group in the order `items` yields them (a counting
+/// sort: two passes over `items`, which must yield the same sequence both times).
+///
+/// # Panics
+/// If a key is `n_keys` or more.
+pub fn group_by_key<V: Copy + Default, I: Iterator<Item = (usize, V)>>(
+    n_keys: usize,
+    items: impl Fn() -> I,
+) -> (Vec<usize>, Vec<V>) {
+    let mut start = vec![0usize; n_keys + 1];
+    for (k, _) in items() {
+        start[k + 1] += 1;
+    }
+    for k in 0..n_keys {
+        start[k + 1] += start[k];
+    }
+    let mut next = start[..n_keys].to_vec();
+    let mut values = vec![V::default(); start[n_keys]];
+    for (k, v) in items() {
+        values[next[k]] = v;
+        next[k] += 1;
+    }
+    (start, values)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grouping_keeps_each_keys_order() {
+        let items = [(2, 'a'), (0, 'b'), (2, 'c'), (3, 'd'), (0, 'e')];
+        let (start, values) = group_by_key(4, || items.iter().copied());
+        assert_eq!(start, vec![0, 2, 2, 4, 5]);
+        assert_eq!(values, vec!['b', 'e', 'a', 'c', 'd']);
+    }
 
     #[test]
     fn union_find_labels() {

@@ -23,7 +23,7 @@
 
 use crate::system::System;
 use clothcast_mesh::Vec3;
-use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, SolveError, SymmetricPattern};
+use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, FactorScalar, SolveError, SymmetricPattern};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -537,17 +537,22 @@ impl Factors {
         vals: &[f64],
         single: bool,
     ) -> Result<(), SolveError> {
+        fn into_slot<T: FactorScalar>(
+            slot: &mut Option<CholeskyFactor<T>>,
+            chol: &CholeskySolver,
+            pattern: &SymmetricPattern,
+            vals: &[f64],
+        ) -> Result<(), SolveError> {
+            match slot {
+                Some(f) => chol.refactor(pattern, vals, f),
+                None => chol.factor_in(pattern, vals).map(|f| *slot = Some(f)),
+            }
+        }
         self.current = None;
         let res = if single {
-            match &mut self.single {
-                Some(f) => chol.refactor(pattern, vals, f),
-                slot => chol.factor_in(pattern, vals).map(|f| *slot = Some(f)),
-            }
+            into_slot(&mut self.single, chol, pattern, vals)
         } else {
-            match &mut self.double {
-                Some(f) => chol.refactor(pattern, vals, f),
-                slot => chol.factor_in(pattern, vals).map(|f| *slot = Some(f)),
-            }
+            into_slot(&mut self.double, chol, pattern, vals)
         };
         if res.is_ok() {
             self.current = Some(single);

@@ -14,6 +14,7 @@ use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane, face_volume};
 use crate::material::Material;
 use clothcast_mesh::sparse::SymmetricPattern;
+use clothcast_mesh::util::group_by_key;
 use clothcast_mesh::{FaceId, Mesh, Vec3, VertexId};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
@@ -99,7 +100,7 @@ pub struct System<'a> {
     spare_hessian: Option<Vec<f64>>,
     /// Per vertex, its corners `store · 3 + corner` in face order: `corners[corner_start[v]..
     /// corner_start[v + 1]]` (for the forces' reduction).
-    corner_start: Vec<u32>,
+    corner_start: Vec<usize>,
     corners: Vec<u32>,
     /// Storage position of each face. Faces are stored sorted by their lowest-numbered vertex, so that
     /// the value slots of one vertex's rows, summed one after the other, read nearby entries
@@ -220,23 +221,12 @@ impl<'a> System<'a> {
             face_store[f as usize] = p as u32;
         }
         let (gather_start, gather_src) = gather_map(&face_slots, &face_store, pattern.nnz());
-        let mut corner_start = vec![0u32; nv + 1];
-        for f in mesh.face_ids() {
-            for v in mesh.face_vertices(f) {
-                corner_start[v.idx() + 1] += 1;
-            }
-        }
-        for v in 0..nv {
-            corner_start[v + 1] += corner_start[v];
-        }
-        let mut next = corner_start.clone();
-        let mut corners = vec![0u32; 3 * mesh.n_faces()];
-        for f in mesh.face_ids() {
-            for (a, v) in mesh.face_vertices(f).into_iter().enumerate() {
-                corners[next[v.idx()] as usize] = 3 * face_store[f.idx()] + a as u32;
-                next[v.idx()] += 1;
-            }
-        }
+        let (corner_start, corners) = group_by_key(nv, || {
+            mesh.face_ids().flat_map(|f| {
+                let sp = face_store[f.idx()];
+                mesh.face_vertices(f).into_iter().enumerate().map(move |(a, v)| (v.idx(), 3 * sp + a as u32))
+            })
+        });
         let stored = store_face
             .iter()
             .map(|&f| {
@@ -493,7 +483,7 @@ impl<'a> System<'a> {
         let mut extf = vec![Vec3::zeros(); nv];
         let (buf, start, corners) = (&self.buf, &self.corner_start, &self.corners);
         grad.par_iter_mut().zip(extf.par_iter_mut()).enumerate().with_min_len(CHUNK).for_each(|(v, (g, e))| {
-            for &c in &corners[start[v] as usize..start[v + 1] as usize] {
+            for &c in &corners[start[v]..start[v + 1]] {
                 let (r, a) = (&buf[c as usize / 3], c as usize % 3);
                 *g += r.grad.fixed_rows::<3>(3 * a);
                 *e += r.ext_grad.fixed_rows::<3>(3 * a);
@@ -620,27 +610,15 @@ fn rotate_block9(frames: &[(Option<Matrix3<f64>>, usize)], h: &Mat9, vs: &[Verte
 /// # Panics
 /// With 95M faces or more (the indices are `u32`; such a mesh would not fit in memory anyway).
 fn gather_map(face_slots: &[[u32; PICKS]], face_store: &[u32], nnz: usize) -> (Vec<usize>, Vec<u32>) {
-    let mut count = vec![0usize; nnz + 1];
-    for slots in face_slots {
-        for &s in slots.iter().filter(|&&s| s != NO_SLOT) {
-            count[s as usize + 1] += 1;
-        }
-    }
-    for i in 0..nnz {
-        count[i + 1] += count[i];
-    }
-    let start = count.clone();
-    let mut src = vec![0u32; start[nnz]];
-    for (fi, slots) in face_slots.iter().enumerate() {
-        for (c, &s) in slots.iter().enumerate() {
-            if s != NO_SLOT {
-                src[count[s as usize]] =
-                    u32::try_from(face_store[fi] as usize * PICKS + c).expect("fewer than 95M faces");
-                count[s as usize] += 1;
-            }
-        }
-    }
-    (start, src)
+    group_by_key(nnz, || {
+        face_slots.iter().zip(face_store).flat_map(|(slots, &sp)| {
+            slots
+                .iter()
+                .enumerate()
+                .filter(|&(_, &s)| s != NO_SLOT)
+                .map(move |(c, &s)| (s as usize, u32::try_from(sp as usize * PICKS + c).expect("fewer than 95M faces")))
+        })
+    })
 }
 
 #[cfg(test)]
