@@ -440,11 +440,25 @@ pub struct SolverSection {
     pub allow_unconverged: bool,
     /// Precision of the sparse factorization of every Newton step.
     pub factor_precision: FactorPrecision,
+    /// Start large solves from the equilibrium of a simplified mold.
+    pub coarse_start: bool,
+    /// Meshes with at least this many faces get the coarse start.
+    pub coarse_start_min_faces: usize,
+    /// The simplified mold has this many times fewer faces.
+    pub coarse_start_ratio: usize,
 }
 
 impl Default for SolverSection {
     fn default() -> Self {
-        Self { tolerance: 1e-8, max_iterations: 200, allow_unconverged: false, factor_precision: FactorPrecision::Auto }
+        Self {
+            tolerance: 1e-8,
+            max_iterations: 200,
+            allow_unconverged: false,
+            factor_precision: FactorPrecision::Auto,
+            coarse_start: true,
+            coarse_start_min_faces: clothcast_sim::coarse::CoarseOptions::default().min_faces,
+            coarse_start_ratio: clothcast_sim::coarse::CoarseOptions::default().ratio,
+        }
     }
 }
 
@@ -581,6 +595,14 @@ impl Config {
         if self.solver.max_iterations == 0 {
             return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
         }
+        if self.solver.coarse_start_ratio < 2 {
+            return Err(err(
+                "solver",
+                "coarse_start_ratio",
+                self.solver.coarse_start_ratio.to_string(),
+                "must be at least 2",
+            ));
+        }
         let f = &self.field;
         if !(0.0..=1.0).contains(&f.anisotropy_threshold) {
             return Err(err("field", "anisotropy_threshold", f.anisotropy_threshold.to_string(), "must lie in [0, 1]"));
@@ -685,6 +707,10 @@ mod tests {
         assert_eq!(c.solver.factor_precision, FactorPrecision::Single);
         let e = Config::from_toml("[solver]\n\nfactor_precision = \"half\"\n", "c").unwrap_err().to_string();
         assert!(e.contains("factor_precision") && e.contains("line 3"), "{e}");
+        let e = Config::from_toml("[solver]\ncoarse_start_ratio = 1\n", "c").unwrap_err().to_string();
+        assert!(e.contains("solver.coarse_start_ratio") && e.contains("at least 2"), "{e}");
+        let c2 = Config::from_toml("[solver]\ncoarse_start = false\ncoarse_start_min_faces = 7\n", "c").unwrap();
+        assert!(!c2.solver.coarse_start && c2.solver.coarse_start_min_faces == 7);
         // Round trip through TOML.
         let text = toml::to_string(&c).unwrap();
         assert_eq!(Config::from_toml(&text, "rt").unwrap(), c);

@@ -7,6 +7,27 @@ use clothcast_mesh::io::read_ply_properties;
 use serde_json::Value;
 
 #[test]
+fn coarse_start_is_reported_and_reaches_the_same_equilibrium() {
+    let (plain, coarse) = (tmpdir("coarse-off"), tmpdir("coarse-on"));
+    let cfg = coarse.join("c.toml");
+    std::fs::create_dir_all(&coarse).unwrap();
+    std::fs::write(&cfg, "[solver]\ncoarse_start_min_faces = 1000\ncoarse_start_ratio = 4\n").unwrap();
+    let o = run(&["simulate", "-q", "-o", plain.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", coarse.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (a, b) = (summary(&plain), summary(&coarse));
+    // The built-in example is below the default threshold: not tried.
+    assert!(a["simulation"]["coarse_start"].is_null(), "{}", a["simulation"]["coarse_start"]);
+    let st = &b["simulation"]["coarse_start"];
+    assert_eq!(st["used"], true, "{st}");
+    assert!(st["faces"].as_u64().unwrap() > 0 && st["newton_iterations"].as_u64().unwrap() > 0, "{st}");
+    let (da, db) = (&a["simulation"]["max_displacement_m"], &b["simulation"]["max_displacement_m"]);
+    let (da, db) = (da.as_f64().unwrap(), db.as_f64().unwrap());
+    assert!((da - db).abs() <= 1e-6 * da, "{da} vs {db}");
+}
+
+#[test]
 fn simulate_writes_deformed_mesh_and_summary() {
     let out = tmpdir("basic");
     let o = run(&["simulate", "-q", "-o", out.to_str().unwrap()]);

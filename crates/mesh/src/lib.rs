@@ -5,7 +5,7 @@
 //! that names every problem ([`validate`]), opt-in repair ([`repair`]), mesh files
 //! ([`io`]: OBJ, PLY, STL, OFF in; OBJ and PLY with custom properties out; atomic writes),
 //! discrete geometry ([`geometry`]: areas, normals, angles, curvature, cotan Laplacian, mass,
-//! frames), submeshes ([`submesh`]), sparse Cholesky with symbolic reuse ([`sparse`]) and
+//! frames), submeshes ([`submesh`]), coarse versions and closest points ([`simplify`]), sparse Cholesky with symbolic reuse ([`sparse`]) and
 //! generated shapes including the built-in example ([`shapes`]).
 //!
 //! ```
@@ -25,6 +25,7 @@ pub mod mesh;
 pub mod ordering;
 pub mod repair;
 pub mod shapes;
+pub mod simplify;
 pub mod soup;
 pub mod sparse;
 pub mod submesh;

@@ -43,6 +43,11 @@ impl Constraints {
             self.dirs[v.idx()].push(d.normalize());
         }
     }
+    /// The constraints of the vertices `vertices`, as vertices 0, 1, … of another mesh (a
+    /// coarse version whose vertex i is `vertices[i]` of this one).
+    pub fn restrict(&self, vertices: &[VertexId]) -> Self {
+        Self { dirs: vertices.iter().map(|v| self.dirs[v.idx()].clone()).collect() }
+    }
     /// Number of constrained directions of a vertex (0..=3).
     pub fn n_fixed(&self, v: VertexId) -> usize {
         self.dirs[v.idx()].len()

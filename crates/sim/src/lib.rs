@@ -15,6 +15,8 @@
 //! - [`constraints`]: clamps and sliding constraints as per-vertex frames.
 //! - [`system`], [`newton`]: assembly with a fixed sparse pattern and the Newton solver with a
 //!   reused symbolic Cholesky factorization.
+//! - [`coarse`]: the coarse start (the equilibrium of a simplified mold as the fine solve's
+//!   starting point).
 //! - [`scenario`]: the one-shot [`simulate`] with suspension modes and precondition checks.
 //!
 //! ```
@@ -27,6 +29,7 @@
 //! assert!(r.stats.converged && r.stats.residual_rel <= 1e-8);
 //! ```
 
+pub mod coarse;
 pub mod constraints;
 pub mod element;
 pub mod hydrostatic;

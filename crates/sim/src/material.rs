@@ -32,6 +32,12 @@ pub trait Material: Send + Sync {
     }
     /// A representative stiffness (N/m) used to scale regularization and tolerances.
     fn reference_stiffness(&self) -> f64;
+    /// True if the response does not depend on the face (then a coarse version of the mesh,
+    /// whose face ids are its own, may be simulated with the same material: see
+    /// [`crate::coarse`]). Materials with per-face data (fiber directions) keep the default.
+    fn is_uniform(&self) -> bool {
+        false
+    }
 }
 
 /// Isotropic St. Venant–Kirchhoff membrane in plane stress:
@@ -79,6 +85,9 @@ impl Material for StVenantKirchhoff {
     }
     fn reference_stiffness(&self) -> f64 {
         self.lambda + 2.0 * self.mu
+    }
+    fn is_uniform(&self) -> bool {
+        true
     }
 }
 
@@ -186,6 +195,9 @@ impl Material for WrinklingStVenantKirchhoff {
     }
     fn reference_stiffness(&self) -> f64 {
         self.stvk.reference_stiffness()
+    }
+    fn is_uniform(&self) -> bool {
+        true
     }
 }
 

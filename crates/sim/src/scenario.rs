@@ -1,5 +1,6 @@
 //! One-shot simulation of a filled mold: scenario → preconditions → Newton → outputs.
 
+use crate::coarse::{CoarseOptions, CoarseStats, coarse_start};
 use crate::constraints::Constraints;
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
@@ -60,6 +61,8 @@ pub struct Scenario {
     pub gravity: f64,
     /// Newton options.
     pub newton: NewtonOptions,
+    /// The coarse start ([`crate::coarse`]); `None`: always solve from the target.
+    pub coarse: Option<CoarseOptions>,
 }
 
 impl Default for Scenario {
@@ -74,6 +77,7 @@ impl Default for Scenario {
             supports: Vec::new(),
             gravity: GRAVITY,
             newton: NewtonOptions::default(),
+            coarse: Some(CoarseOptions::default()),
         }
     }
 }
@@ -177,8 +181,10 @@ pub struct SimStats {
     pub support_forces_n: Vec<[f64; 3]>,
     /// Smallest and largest squared principal stretch over the faces.
     pub lambda_range: [f64; 2],
-    /// Solver details (factorizations, timings, dofs).
+    /// Solver details (factorizations, timings, dofs) of the fine solve.
     pub solver: SolveStats,
+    /// The coarse start, if it was tried.
+    pub coarse_start: Option<CoarseStats>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -312,9 +318,41 @@ pub fn simulate(
         Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
     });
 
+    let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
+    let (mut x0, mut coarse) = (None, None);
+    if let Some(co) = sc.coarse.filter(|co| material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2) {
+        let faces = mesh.n_faces() / co.ratio;
+        let (x, st) = coarse_start(mesh, material, &loads, &constraints, &sc.supports, barrier, &sc.newton, faces);
+        x0 = x;
+        coarse = Some(st);
+    }
     let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
-    let x0: Vec<Vec3> = mesh.positions().as_slice().to_vec();
-    let res = solve(&mut sys, x0, &sc.newton, progress)?;
+    let res = match x0 {
+        Some(x) => {
+            let res = solve(&mut sys, x, &sc.newton, progress);
+            let st = coarse.as_mut().expect("a coarse start");
+            match res {
+                Ok(r) if r.termination == Termination::Converged => {
+                    st.used = true;
+                    r
+                }
+                // From the coarse start the fine solve failed: from the target, as without one.
+                other => {
+                    let why = match other {
+                        Ok(r) => format!("{:?}", r.termination),
+                        Err(e) => e.to_string(),
+                    };
+                    tracing::warn!(reason = %why, "the fine solve from the coarse start failed; solving from the target");
+                    st.note = Some(format!("the fine solve from it failed ({why}); solved again from the target"));
+                    solve(&mut sys, target, &sc.newton, progress)?
+                }
+            }
+        }
+        None => solve(&mut sys, target, &sc.newton, progress)?,
+    };
+    if let Some(st) = &coarse {
+        tracing::debug!(?st, "coarse start");
+    }
 
     // Outputs.
     let positions = VertexData::from_vec(res.positions);
@@ -354,6 +392,7 @@ pub fn simulate(
         support_forces_n: support_forces.iter().map(|f| (*f).into()).collect(),
         lambda_range: [lmin, lmax],
         solver: res.stats,
+        coarse_start: coarse,
         seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(SimResult { positions, stretch, stats, history: res.history })

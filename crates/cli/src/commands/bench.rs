@@ -21,7 +21,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
     let mut rows = Vec::new();
     if !args.json {
         println!(
-            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>8} {:>9}",
+            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>8} {:>9} {:>13}",
             "mesh",
             "faces",
             "dofs",
@@ -32,7 +32,8 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "1 factor s",
             "prec",
             "ratio",
-            "converged"
+            "converged",
+            "coarse start"
         );
     }
     for m in meshes {
@@ -61,10 +62,18 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "converged": s.converged, "residual_rel": s.residual_rel,
             "factor_precision": if s.solver.single_precision { "single" } else { "double" },
             "pcg_iterations": s.solver.pcg_iterations,
+            "coarse_start": s.coarse_start,
         });
+        // The coarse start, if tried: its faces and iterations ("-" if not tried, "unused" if
+        // tried but not used).
+        let coarse = match &s.coarse_start {
+            None => "-".to_string(),
+            Some(c) if c.used => format!("{}f {}it", c.faces, c.newton_iterations),
+            Some(_) => "unused".to_string(),
+        };
         if !args.json {
             println!(
-                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>6} {:>8.1} {:>9}",
+                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>6} {:>8.1} {:>9} {:>13}",
                 name,
                 input.mesh.n_faces(),
                 s.solver.dofs,
@@ -75,7 +84,8 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
                 one,
                 if s.solver.single_precision { "f32" } else { "f64" },
                 row["ratio_to_one_factorization"].as_f64().unwrap_or(0.0),
-                s.converged
+                s.converged,
+                coarse
             );
         }
         rows.push(row);

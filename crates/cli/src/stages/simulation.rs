@@ -62,6 +62,10 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
             },
             ..Default::default()
         },
+        coarse: cfg.solver.coarse_start.then_some(clothcast_sim::coarse::CoarseOptions {
+            min_faces: cfg.solver.coarse_start_min_faces,
+            ratio: cfg.solver.coarse_start_ratio,
+        }),
     })
 }
 

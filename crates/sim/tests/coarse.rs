@@ -1,0 +1,102 @@
+//! The coarse start: same equilibrium as the solve from the target, fewer fine iterations,
+//! and the plain path whenever it cannot be used.
+
+use clothcast_mesh::{FaceId, Mesh, Vec3, shapes};
+use clothcast_sim::coarse::CoarseOptions;
+use clothcast_sim::loads::Plane;
+use clothcast_sim::material::{Material, MaterialResponse, WrinklingStVenantKirchhoff};
+use clothcast_sim::newton::NewtonOptions;
+use clothcast_sim::*;
+use nalgebra::Vector3;
+
+const Y: f64 = 50_000.0;
+const NU: f64 = 0.3;
+const SMALL: CoarseOptions = CoarseOptions { min_faces: 1000, ratio: 8 };
+
+fn max_gap(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max)
+}
+
+fn solve_both(mesh: &Mesh, mat: &dyn Material, sc: &Scenario) -> (SimResult, SimResult) {
+    let coarse = simulate(mesh, mat, &Scenario { coarse: Some(SMALL), ..sc.clone() }, &mut |_| {}).unwrap();
+    let plain = simulate(mesh, mat, &Scenario { coarse: None, ..sc.clone() }, &mut |_| {}).unwrap();
+    (coarse, plain)
+}
+
+#[test]
+fn coarse_start_reaches_the_equilibrium_of_the_plain_solve() {
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    // A sphere hung from its top band and filled; and a bag held at its rim, bulging onto a
+    // floor 2 mm below its bottom (the start must stay in front of the support).
+    let sphere = shapes::icosphere(4, 0.2);
+    let bag = shapes::cylinder(0.1, 0.3, 64, 40, true, false);
+    let on_floor = Scenario {
+        suspension: Suspension::Boundary,
+        supports: vec![Plane::new(Vec3::new(0.0, 0.0, -0.002), Vec3::z())],
+        ..Default::default()
+    };
+    for (name, mesh, sc) in [("sphere", &sphere, Scenario::default()), ("bag", &bag, on_floor)] {
+        assert!(mesh.n_faces() >= SMALL.min_faces, "{name}: {} faces", mesh.n_faces());
+        let (c, p) = solve_both(mesh, &mat, &sc);
+        assert!(
+            c.stats.converged && p.stats.converged,
+            "{name}: {:?} / {:?}",
+            c.stats.termination,
+            p.stats.termination
+        );
+        let st = c.stats.coarse_start.as_ref().expect("tried");
+        assert!(st.used && st.converged && st.note.is_none(), "{name}: {st:?}");
+        assert!(st.faces > 0 && 2 * st.faces <= mesh.n_faces(), "{name}: {} coarse faces", st.faces);
+        assert!(p.stats.coarse_start.is_none());
+        // Even on these small meshes the start saves fine iterations (sphere 12 → 10, bag 16 → 14).
+        assert!(
+            c.stats.newton_iterations < p.stats.newton_iterations,
+            "{name}: {} fine iterations from the coarse start, {} from the target",
+            c.stats.newton_iterations,
+            p.stats.newton_iterations
+        );
+        let gap = max_gap(c.positions.as_slice(), p.positions.as_slice());
+        assert!(gap <= 1e-6 * p.stats.max_displacement_m, "{name}: equilibria {gap} m apart");
+        assert!(c.positions.iter().all(|q| q.z > -0.002 || sc.supports.is_empty()), "{name}: passed the floor");
+    }
+}
+
+#[test]
+fn an_unusable_coarse_start_leaves_the_plain_solve() {
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mesh = shapes::icosphere(4, 0.2);
+    // Too few iterations for the coarse solve: not used, and the fine solve is the plain one,
+    // iteration for iteration.
+    let sc = Scenario { newton: NewtonOptions { max_iterations: 3, ..Default::default() }, ..Default::default() };
+    let (c, p) = solve_both(&mesh, &mat, &sc);
+    let st = c.stats.coarse_start.as_ref().expect("tried");
+    assert!(!st.used && !st.converged, "{st:?}");
+    assert!(st.note.as_deref().unwrap_or("").contains("did not converge"), "{st:?}");
+    assert_eq!(c.positions.as_slice(), p.positions.as_slice());
+    assert_eq!(c.stats.newton_iterations, p.stats.newton_iterations);
+    // Below the size threshold it is not tried at all.
+    let sc =
+        Scenario { coarse: Some(CoarseOptions { min_faces: 10 * mesh.n_faces(), ratio: 8 }), ..Default::default() };
+    assert!(simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap().stats.coarse_start.is_none());
+}
+
+/// A material that says its response may depend on the face.
+struct PerFace(WrinklingStVenantKirchhoff);
+
+impl Material for PerFace {
+    fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
+        self.0.response(face, e)
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.0.reference_stiffness()
+    }
+}
+
+#[test]
+fn materials_with_per_face_data_are_never_coarsened() {
+    let mat = PerFace(WrinklingStVenantKirchhoff::from_young_poisson(Y, NU));
+    let mesh = shapes::icosphere(4, 0.2);
+    let r = simulate(&mesh, &mat, &Scenario { coarse: Some(SMALL), ..Default::default() }, &mut |_| {}).unwrap();
+    assert!(r.stats.converged);
+    assert!(r.stats.coarse_start.is_none());
+}
