@@ -8,12 +8,13 @@
 //!
 //! [`ClosestPoint`] finds the closest point of a mesh's surface to a query point (a uniform
 //! grid of face boxes searched ring by ring), to carry a field from a coarse mesh to the fine
-//! one by barycentric interpolation. Written here because it is twenty lines over the mesh
-//! types; a BVH crate would need its own triangle representation and gain nothing at these
+//! one by barycentric interpolation. Written here because it is a hundred lines over the mesh
+//! types; a BVH crate would need its own triangle representation and gain little at these
 //! sizes (one query per fine vertex, a few cells each).
 
 use crate::Vec3;
 use crate::error::MeshError;
+use crate::geometry::triangle_area_vector2;
 use crate::ids::{FaceId, VertexId};
 use crate::mesh::Mesh;
 use crate::soup::Aabb;
@@ -40,7 +41,10 @@ pub struct Simplified {
 /// If `locked` does not have one flag per vertex.
 pub fn simplify(mesh: &Mesh, target_faces: usize, locked: &[bool]) -> Result<Simplified, MeshError> {
     assert_eq!(locked.len(), mesh.n_vertices(), "one lock flag per vertex");
-    let positions: Vec<[f32; 3]> = mesh.positions().iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
+    // Single precision about the centre (meshoptimizer reads f32 positions).
+    let center = mesh.bbox().center();
+    let positions: Vec<[f32; 3]> =
+        mesh.positions().iter().map(|p| p - center).map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
     let indices: Vec<u32> = mesh.faces().iter().flat_map(|f| f.map(|v| v.0)).collect();
     // No error bound: the face count is the target (the error is relative to the extent).
     let out = meshopt::simplify_with_locks_decoder(
@@ -85,7 +89,7 @@ pub struct ClosestPoint<'m> {
 
 /// Where a query point lands on the surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfacePoint {
+pub struct ClosestHit {
     /// The face.
     pub face: FaceId,
     /// Barycentric coordinates on its corners (non-negative, summing to 1).
@@ -98,9 +102,18 @@ impl<'m> ClosestPoint<'m> {
     /// Index the faces of `mesh` (a non-empty mesh).
     pub fn new(mesh: &'m Mesh) -> Self {
         let bbox = mesh.bbox();
-        // About one face per cell on a surface: cells of twice the mean edge.
-        let cell = (2.0 * mesh.mean_edge_length()).max(1e-12 * (bbox.max - bbox.min).norm()).max(f64::MIN_POSITIVE);
-        let dims = [0, 1, 2].map(|k| (((bbox.max[k] - bbox.min[k]) / cell).floor() as usize + 1).min(1 << 20));
+        let extent = bbox.max - bbox.min;
+        // About one face per cell on a surface: cells of twice the mean edge, made larger
+        // until there are at most 4 cells per face (a long or sparse mesh, several far apart
+        // components), so the grid always covers the box and its size is linear in the faces.
+        let mut cell = (2.0 * mesh.mean_edge_length()).max(1e-9 * extent.norm()).max(f64::MIN_POSITIVE);
+        let dims_of = |cell: f64| extent.map(|e| (e / cell).floor() + 1.0);
+        let max_cells = 4.0 * mesh.n_faces() as f64 + 64.0;
+        while dims_of(cell).product() > max_cells {
+            cell *= 1.25;
+        }
+        let d = dims_of(cell);
+        let dims = [d.x as usize, d.y as usize, d.z as usize];
         let mut this = Self { mesh, origin: bbox.min, cell, dims, start: Vec::new(), faces: Vec::new() };
         let n_cells = dims[0] * dims[1] * dims[2];
         let (start, faces) = crate::util::group_by_key(n_cells, || {
@@ -126,13 +139,27 @@ impl<'m> ClosestPoint<'m> {
         (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
     }
 
-    /// The closest point of the surface to `p` (ties: the lowest face id).
+    /// The closest point of the surface to `p` (among faces at equal distance, one chosen
+    /// deterministically).
     ///
     /// Searches the cells in rings of growing Chebyshev radius around `p`'s cell, skipping
     /// cells farther than the best point found, until no cell of the next ring can be closer.
-    pub fn query(&self, p: &Vec3) -> SurfacePoint {
+    pub fn query(&self, p: &Vec3) -> ClosestHit {
+        self.query_among(p, |_| true)
+    }
+
+    /// The closest point of `p` on the faces that face the same way as `normal` (positive dot
+    /// product with their normal), or on all faces if none does: what carries a field from one
+    /// side of a thin wall to the same side of its coarse version, not to the opposite one.
+    pub fn query_facing(&self, p: &Vec3, normal: &Vec3) -> ClosestHit {
+        let hit = self.query_among(p, |f| triangle_area_vector2(&self.mesh.face_positions(f)).dot(normal) > 0.0);
+        if hit.distance.is_finite() { hit } else { self.query(p) }
+    }
+
+    /// The closest point of `p` on the faces `accept` takes (distance ∞ if it takes none).
+    fn query_among(&self, p: &Vec3, accept: impl Fn(FaceId) -> bool) -> ClosestHit {
         let c = self.cell_of(p);
-        let mut best = SurfacePoint { face: FaceId(0), weights: [1.0, 0.0, 0.0], distance: f64::INFINITY };
+        let mut best = ClosestHit { face: FaceId(0), weights: [1.0, 0.0, 0.0], distance: f64::INFINITY };
         for r in 0.. {
             let lo = c.map(|x| x.saturating_sub(r));
             let hi = [0, 1, 2].map(|k| (c[k] + r).min(self.dims[k] - 1));
@@ -148,10 +175,13 @@ impl<'m> ClosestPoint<'m> {
                         let cell = self.cell_index([i, j, k]);
                         for &f in &self.faces[self.start[cell]..self.start[cell + 1]] {
                             let face = FaceId(f);
+                            if !accept(face) {
+                                continue;
+                            }
                             let (w, q) = closest_on_triangle(p, &self.mesh.face_positions(face));
                             let d = (q - p).norm();
                             if d < best.distance || (d == best.distance && face.0 < best.face.0) {
-                                best = SurfacePoint { face, weights: w, distance: d };
+                                best = ClosestHit { face, weights: w, distance: d };
                             }
                         }
                     };
@@ -212,7 +242,8 @@ pub fn closest_on_triangle(p: &Vec3, t: &[Vec3; 3]) -> ([f64; 3], Vec3) {
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
+        // (d1 − d3 = |ab|² > 0 unless a = b: then the corner.)
+        let v = if d1 - d3 > 0.0 { d1 / (d1 - d3) } else { 0.0 };
         return ([1.0 - v, v, 0.0], a + ab * v);
     }
     let cp = p - c;
@@ -222,12 +253,13 @@ pub fn closest_on_triangle(p: &Vec3, t: &[Vec3; 3]) -> ([f64; 3], Vec3) {
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
+        let w = if d2 - d6 > 0.0 { d2 / (d2 - d6) } else { 0.0 };
         return ([1.0 - w, 0.0, w], a + ac * w);
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        let den = (d4 - d3) + (d5 - d6);
+        let w = if den > 0.0 { (d4 - d3) / den } else { 0.0 };
         return ([0.0, 1.0 - w, w], b + (c - b) * w);
     }
     let denom = va + vb + vc;
@@ -247,9 +279,17 @@ mod tests {
     #[test]
     fn closest_point_on_a_triangle_matches_brute_force_sampling() {
         let t = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.2, 0.0), Vec3::new(0.3, 0.9, 0.4)];
-        for &(x, y, z) in
-            &[(0.3, 0.3, 0.5), (-1.0, -1.0, 0.0), (2.0, 0.0, 0.0), (0.5, -0.5, 0.1), (0.0, 2.0, 1.0), (1.0, 1.0, 0.0)]
-        {
+        // One point in each Voronoi region: the face, the three corners, the three edges.
+        let points = [
+            (0.3, 0.3, 0.5),
+            (-1.0, -1.0, 0.0),
+            (2.0, 0.0, 0.0),
+            (0.5, -0.5, 0.1),
+            (0.0, 2.0, 1.0),
+            (1.0, 1.0, 0.0),
+            (-0.5, 0.6, 0.2),
+        ];
+        for &(x, y, z) in &points {
             let p = Vec3::new(x, y, z);
             let (w, q) = closest_on_triangle(&p, &t);
             assert!(w.iter().all(|&a| a >= 0.0) && (w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
@@ -269,18 +309,32 @@ mod tests {
 
     #[test]
     fn grid_query_equals_the_scan_over_all_faces() {
+        // A uniform sphere, its non-uniform simplification (slivers, a locked fine cap), and two
+        // far-apart spheres (a sparse box: the grid is coarsened to stay linear in the faces).
         let m = shapes::icosphere(3, 1.0);
-        let cp = ClosestPoint::new(&m);
-        for k in 0..60 {
-            let a = k as f64 * 0.7;
-            let r = 0.3 + 0.05 * k as f64;
-            let p = Vec3::new(r * a.cos() * (0.3 * a).sin(), r * a.sin(), r * (0.3 * a).cos());
-            let got = cp.query(&p);
-            let scan = m
-                .face_ids()
-                .map(|f| (closest_on_triangle(&p, &m.face_positions(f)).1 - p).norm())
-                .fold(f64::INFINITY, f64::min);
-            assert!((got.distance - scan).abs() < 1e-12, "{p:?}: {} vs {scan}", got.distance);
+        let locked: Vec<bool> = m.vertices().map(|v| m.position(v).z > 0.7).collect();
+        let coarse = simplify(&m, 100, &locked).unwrap().mesh;
+        let soup = m.to_soup();
+        let n = soup.positions.len() as u32;
+        let mut positions = soup.positions.clone();
+        positions.extend(soup.positions.iter().map(|p| p + Vec3::new(1e4, 0.0, 0.0)));
+        let mut triangles = soup.triangles.clone();
+        triangles.extend(soup.triangles.iter().map(|t| t.map(|i| i + n)));
+        let two = Mesh::try_new(positions, triangles).unwrap();
+        for mesh in [&m, &coarse, &two] {
+            let cp = ClosestPoint::new(mesh);
+            assert!(cp.dims.iter().product::<usize>() <= 4 * mesh.n_faces() + 64, "{:?}", cp.dims);
+            for k in 0..60 {
+                let a = k as f64 * 0.7;
+                let r = 0.3 + 0.05 * k as f64;
+                let p = Vec3::new(r * a.cos() * (0.3 * a).sin(), r * a.sin(), r * (0.3 * a).cos());
+                let got = cp.query(&p);
+                let scan = mesh
+                    .face_ids()
+                    .map(|f| (closest_on_triangle(&p, &mesh.face_positions(f)).1 - p).norm())
+                    .fold(f64::INFINITY, f64::min);
+                assert!((got.distance - scan).abs() < 1e-12, "{p:?}: {} vs {scan}", got.distance);
+            }
         }
     }
 

@@ -244,6 +244,15 @@ pub fn suspension_constraints(mesh: &Mesh, suspension: &Suspension, up: &Vec3) -
     Ok(c)
 }
 
+/// The contact barrier of the supports on `mesh` under loads of at most `p_max` (Pa): its
+/// scale is a tenth of a mean edge, its stiffness such that it holds the largest per-vertex
+/// pressure load at half that distance.
+pub(crate) fn contact_barrier(mesh: &Mesh, p_max: f64, material: &dyn Material) -> Barrier {
+    let dhat = 0.1 * mesh.mean_edge_length();
+    let a_v = mesh.total_area() / mesh.n_vertices() as f64;
+    Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
+}
+
 /// Simulate the filled mold: `mesh` is the target (and rest) shape in metres.
 pub fn simulate(
     mesh: &Mesh,
@@ -307,28 +316,23 @@ pub fn simulate(
             }
         }
     }
-    // Barrier scale: a tenth of a mean edge; stiffness so that it holds the largest
-    // per-vertex pressure load at half that distance.
-    let barrier = (!sc.supports.is_empty()).then(|| {
-        let dhat = 0.1 * mesh.mean_edge_length();
-        let p_max = hydro.map(|h| h.rho_g * (h.fill_height - low)).unwrap_or(0.0)
-            + loads.head_pressure.abs()
-            + loads.self_weight.map(|w| w.0).unwrap_or(0.0);
-        let a_v = mesh.total_area() / mesh.n_vertices() as f64;
-        Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
-    });
+    let p_max = hydro.map(|h| h.rho_g * (h.fill_height - low)).unwrap_or(0.0)
+        + loads.head_pressure.abs()
+        + loads.self_weight.map(|w| w.0).unwrap_or(0.0);
+    let barrier = (!sc.supports.is_empty()).then(|| contact_barrier(mesh, p_max, material));
 
     let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
     let (mut x0, mut coarse) = (None, None);
     if let Some(co) = sc.coarse.filter(|co| material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2) {
         let faces = mesh.n_faces() / co.ratio;
-        let (x, st) = coarse_start(mesh, material, &loads, &constraints, &sc.supports, barrier, &sc.newton, faces);
+        let (x, st) = coarse_start(mesh, material, &loads, &constraints, &sc.supports, p_max, &sc.newton, faces);
         x0 = x;
         coarse = Some(st);
     }
     let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
     let res = match x0 {
         Some(x) => {
+            let tf = Instant::now();
             let res = solve(&mut sys, x, &sc.newton, progress);
             let st = coarse.as_mut().expect("a coarse start");
             match res {
@@ -336,15 +340,31 @@ pub fn simulate(
                     st.used = true;
                     r
                 }
-                // From the coarse start the fine solve failed: from the target, as without one.
+                // From the coarse start the fine solve failed: from the target, as without one,
+                // with the iterations that are left (the allowance is for the whole solve).
                 other => {
-                    let why = match other {
-                        Ok(r) => format!("{:?}", r.termination),
-                        Err(e) => e.to_string(),
+                    let (why, spent) = match &other {
+                        Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
+                        Err(e) => (e.to_string(), 0),
                     };
-                    tracing::warn!(reason = %why, "the fine solve from the coarse start failed; solving from the target");
-                    st.note = Some(format!("the fine solve from it failed ({why}); solved again from the target"));
-                    solve(&mut sys, target, &sc.newton, progress)?
+                    st.fine_iterations_discarded = spent;
+                    st.fine_seconds_discarded = tf.elapsed().as_secs_f64();
+                    let left = sc.newton.max_iterations.saturating_sub(spent);
+                    tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
+                    match other {
+                        Ok(r) if left == 0 => {
+                            st.used = true;
+                            st.note = Some(format!("the fine solve from it failed ({why}) with no iterations left"));
+                            r
+                        }
+                        _ => {
+                            st.note = Some(format!(
+                                "the fine solve from it failed ({why}); solved again from the target with the {left} iterations left"
+                            ));
+                            let opts = NewtonOptions { max_iterations: left.max(1), ..sc.newton.clone() };
+                            solve(&mut sys, target, &opts, progress)?
+                        }
+                    }
                 }
             }
         }
