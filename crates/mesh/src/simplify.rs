@@ -17,7 +17,7 @@ use crate::error::MeshError;
 use crate::geometry::triangle_area_vector2;
 use crate::ids::{FaceId, VertexId};
 use crate::mesh::Mesh;
-use crate::soup::Aabb;
+use crate::soup::{Aabb, TriSoup};
 
 /// A simplified mesh and where its vertices come from.
 #[derive(Clone, Debug)]
@@ -56,23 +56,11 @@ pub fn simplify(mesh: &Mesh, target_faces: usize, locked: &[bool]) -> Result<Sim
         meshopt::SimplifyOptions::LockBorder,
         None,
     );
-    let mut new_index = vec![u32::MAX; mesh.n_vertices()];
-    for &i in &out {
-        new_index[i as usize] = 0;
-    }
-    let mut parent = Vec::new();
-    for (v, slot) in new_index.iter_mut().enumerate() {
-        if *slot == 0 {
-            *slot = parent.len() as u32;
-            parent.push(VertexId(v as u32));
-        }
-    }
-    let triangles: Vec<[u32; 3]> = out
-        .chunks_exact(3)
-        .map(|t| [new_index[t[0] as usize], new_index[t[1] as usize], new_index[t[2] as usize]])
-        .collect();
-    let coarse_positions = parent.iter().map(|&v| mesh.position(v)).collect();
-    let coarse = Mesh::try_new(coarse_positions, triangles)?;
+    let triangles = out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let (soup, kept) =
+        crate::repair::compact(&TriSoup::from_triangles(mesh.positions().as_slice().to_vec(), triangles));
+    let coarse = Mesh::try_from_soup(&soup)?;
+    let parent = kept.into_iter().map(VertexId).collect();
     Ok(Simplified { mesh: coarse, parent })
 }
 

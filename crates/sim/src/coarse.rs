@@ -30,7 +30,7 @@ use crate::material::Material;
 use crate::newton::{NewtonOptions, Termination, solve};
 use crate::system::{Loads, System};
 use clothcast_mesh::simplify::{ClosestPoint, simplify};
-use clothcast_mesh::{Mesh, Vec3};
+use clothcast_mesh::{Mesh, Vec3, VertexId};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -61,7 +61,7 @@ pub const COARSE_MIN_FACES: usize = 500;
 pub const COARSE_TOLERANCE: f64 = 1e-6;
 
 /// What the coarse start did (the `simulation.coarse_start` section of summary.json).
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct CoarseStats {
     /// Faces of the simplified mesh (0 if the simplification failed).
     pub faces: usize,
@@ -89,33 +89,26 @@ pub struct CoarseStats {
     pub fine_seconds_discarded: f64,
 }
 
-/// The starting positions for `mesh` from the equilibrium of a simplified copy of it with
-/// about `target_faces` faces, or why there are none (the statistics say how far it got).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn coarse_start(
-    mesh: &Mesh,
-    material: &dyn Material,
-    loads: &Loads,
-    constraints: &Constraints,
-    supports: &[Plane],
-    p_max: f64,
-    opts: &NewtonOptions,
-    target_faces: usize,
-) -> (Option<Vec<Vec3>>, CoarseStats) {
+/// The fine problem a coarse start is made for.
+#[derive(Clone, Copy)]
+pub(crate) struct Problem<'a> {
+    pub mesh: &'a Mesh,
+    pub material: &'a dyn Material,
+    pub loads: &'a Loads,
+    pub constraints: &'a Constraints,
+    pub supports: &'a [Plane],
+    /// The largest pressure (Pa), which sizes the contact barrier.
+    pub p_max: f64,
+    pub opts: &'a NewtonOptions,
+}
+
+/// The starting positions for the problem's mesh from the equilibrium of a simplified copy of
+/// it with about `target_faces` faces, or why there are none (the statistics say how far it
+/// got).
+pub(crate) fn coarse_start(pb: &Problem<'_>, target_faces: usize) -> (Option<Vec<Vec3>>, CoarseStats) {
     let t0 = Instant::now();
-    let mut stats = CoarseStats {
-        faces: 0,
-        vertices: 0,
-        newton_iterations: 0,
-        converged: false,
-        used: false,
-        note: None,
-        seconds: 0.0,
-        support_adjusted_vertices: 0,
-        fine_iterations_discarded: 0,
-        fine_seconds_discarded: 0.0,
-    };
-    let x = run(mesh, material, loads, constraints, supports, p_max, opts, target_faces, &mut stats);
+    let mut stats = CoarseStats::default();
+    let x = transfer(pb, target_faces, &mut stats);
     if let Err(why) = &x {
         stats.note = Some(why.clone());
     }
@@ -123,18 +116,9 @@ pub(crate) fn coarse_start(
     (x.ok(), stats)
 }
 
-#[allow(clippy::too_many_arguments)]
-fn run(
-    mesh: &Mesh,
-    material: &dyn Material,
-    loads: &Loads,
-    constraints: &Constraints,
-    supports: &[Plane],
-    p_max: f64,
-    opts: &NewtonOptions,
-    target_faces: usize,
-    stats: &mut CoarseStats,
-) -> Result<Vec<Vec3>, String> {
+/// The body of [`coarse_start`]: the positions, or why there are none.
+fn transfer(pb: &Problem<'_>, target_faces: usize, stats: &mut CoarseStats) -> Result<Vec<Vec3>, String> {
+    let Problem { mesh, material, loads, constraints, supports, p_max, opts } = *pb;
     if target_faces < COARSE_MIN_FACES {
         return Err(format!("a coarse mesh of {target_faces} faces is too small (at least {COARSE_MIN_FACES})"));
     }
@@ -184,10 +168,8 @@ fn run(
             if kept[v] != u32::MAX {
                 return res.positions[kept[v] as usize];
             }
-            if constraints.n_fixed(clothcast_mesh::VertexId(v as u32)) > 0 {
-                return *p; // (not reached: constrained vertices are locked, hence kept)
-            }
-            let q = closest.query_facing(p, &normals[clothcast_mesh::VertexId(v as u32)]);
+            debug_assert_eq!(constraints.n_fixed(VertexId(v as u32)), 0, "constrained vertices are locked, hence kept");
+            let q = closest.query_facing(p, &normals[VertexId(v as u32)]);
             let c = coarse.mesh.face_vertices(q.face);
             p + disp[c[0].idx()] * q.weights[0] + disp[c[1].idx()] * q.weights[1] + disp[c[2].idx()] * q.weights[2]
         })
@@ -199,7 +181,7 @@ fn run(
     for pl in supports {
         for (v, (p, q)) in target.iter().zip(x.iter_mut()).enumerate() {
             let (d0, d1) = (pl.distance(p), pl.distance(q));
-            if d1 < 0.2 * d0 && constraints.n_fixed(clothcast_mesh::VertexId(v as u32)) == 0 {
+            if d1 < 0.2 * d0 && constraints.n_fixed(VertexId(v as u32)) == 0 {
                 *q += pl.normal * (0.2 * d0 - d1);
                 stats.support_adjusted_vertices += 1;
             }

@@ -1,11 +1,11 @@
 //! One-shot simulation of a filled mold: scenario → preconditions → Newton → outputs.
 
-use crate::coarse::{CoarseOptions, CoarseStats, coarse_start};
+use crate::coarse::{CoarseOptions, CoarseStats, Problem, coarse_start};
 use crate::constraints::Constraints;
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
 use crate::material::Material;
-use crate::newton::{IterationReport, NewtonOptions, SolveStats, Termination, solve};
+use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve};
 use crate::system::{Loads, System};
 use clothcast_mesh::sparse::SolveError;
 use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
@@ -253,6 +253,41 @@ pub(crate) fn contact_barrier(mesh: &Mesh, p_max: f64, material: &dyn Material) 
     Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
 }
 
+/// The fine solve from the coarse start `x`; if it fails, again from the target with the
+/// iterations that are left (the allowance is for the whole solve). `st` records which.
+fn solve_from_coarse(
+    sys: &mut System<'_>,
+    x: Vec<Vec3>,
+    st: &mut CoarseStats,
+    target: Vec<Vec3>,
+    opts: &NewtonOptions,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<NewtonResult, SolveError> {
+    let t = Instant::now();
+    let res = solve(sys, x, opts, progress);
+    let (why, spent) = match &res {
+        Ok(r) if r.termination == Termination::Converged => {
+            st.used = true;
+            return res;
+        }
+        Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
+        Err(e) => (e.to_string(), 0),
+    };
+    st.fine_iterations_discarded = spent;
+    st.fine_seconds_discarded = t.elapsed().as_secs_f64();
+    let left = opts.max_iterations.saturating_sub(spent);
+    tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
+    if left == 0 && res.is_ok() {
+        st.used = true;
+        st.note = Some(format!("the fine solve from it failed ({why}) with no iterations left"));
+        return res;
+    }
+    st.note = Some(format!(
+        "the fine solve from it failed ({why}); solved again from the target with the {left} iterations left"
+    ));
+    solve(sys, target, &NewtonOptions { max_iterations: left.max(1), ..opts.clone() }, progress)
+}
+
 /// Simulate the filled mold: `mesh` is the target (and rest) shape in metres.
 pub fn simulate(
     mesh: &Mesh,
@@ -322,54 +357,25 @@ pub fn simulate(
     let barrier = (!sc.supports.is_empty()).then(|| contact_barrier(mesh, p_max, material));
 
     let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
-    let (mut x0, mut coarse) = (None, None);
-    if let Some(co) = sc.coarse.filter(|co| material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2) {
-        let faces = mesh.n_faces() / co.ratio;
-        let (x, st) = coarse_start(mesh, material, &loads, &constraints, &sc.supports, p_max, &sc.newton, faces);
-        x0 = x;
-        coarse = Some(st);
-    }
+    let mut coarse =
+        sc.coarse.filter(|co| material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2).map(|co| {
+            let pb = Problem {
+                mesh,
+                material,
+                loads: &loads,
+                constraints: &constraints,
+                supports: &sc.supports,
+                p_max,
+                opts: &sc.newton,
+            };
+            coarse_start(&pb, mesh.n_faces() / co.ratio)
+        });
     let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
-    let res = match x0 {
-        Some(x) => {
-            let tf = Instant::now();
-            let res = solve(&mut sys, x, &sc.newton, progress);
-            let st = coarse.as_mut().expect("a coarse start");
-            match res {
-                Ok(r) if r.termination == Termination::Converged => {
-                    st.used = true;
-                    r
-                }
-                // From the coarse start the fine solve failed: from the target, as without one,
-                // with the iterations that are left (the allowance is for the whole solve).
-                other => {
-                    let (why, spent) = match &other {
-                        Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
-                        Err(e) => (e.to_string(), 0),
-                    };
-                    st.fine_iterations_discarded = spent;
-                    st.fine_seconds_discarded = tf.elapsed().as_secs_f64();
-                    let left = sc.newton.max_iterations.saturating_sub(spent);
-                    tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
-                    match other {
-                        Ok(r) if left == 0 => {
-                            st.used = true;
-                            st.note = Some(format!("the fine solve from it failed ({why}) with no iterations left"));
-                            r
-                        }
-                        _ => {
-                            st.note = Some(format!(
-                                "the fine solve from it failed ({why}); solved again from the target with the {left} iterations left"
-                            ));
-                            let opts = NewtonOptions { max_iterations: left.max(1), ..sc.newton.clone() };
-                            solve(&mut sys, target, &opts, progress)?
-                        }
-                    }
-                }
-            }
-        }
-        None => solve(&mut sys, target, &sc.newton, progress)?,
+    let res = match &mut coarse {
+        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, target, &sc.newton, progress)?,
+        _ => solve(&mut sys, target, &sc.newton, progress)?,
     };
+    let coarse = coarse.map(|(_, st)| st);
     if let Some(st) = &coarse {
         tracing::debug!(?st, "coarse start");
     }
@@ -378,10 +384,9 @@ pub fn simulate(
     let positions = VertexData::from_vec(res.positions);
     let stretch: FaceData<[f64; 2]> = mesh
         .face_ids()
-        .zip(sys.elements())
-        .map(|(f, e)| {
+        .map(|f| {
             let p = mesh.face_vertices(f).map(|v| positions[v]);
-            let (l1, l2, _) = e.principal_stretches(&p);
+            let (l1, l2, _) = sys.element(f).principal_stretches(&p);
             [l1, l2]
         })
         .collect();

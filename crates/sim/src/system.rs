@@ -72,7 +72,6 @@ pub struct System<'a> {
     loads: Loads,
     supports: Vec<Plane>,
     barrier: Option<Barrier>,
-    elements: Vec<Element>,
     volume_center: Vec3,
     vertex_mass_weight: Vec<f64>,
     /// Per vertex: frame (None = identity) and number of constrained leading axes.
@@ -247,7 +246,6 @@ impl<'a> System<'a> {
             loads,
             supports,
             barrier,
-            elements,
             volume_center,
             vertex_mass_weight,
             frames,
@@ -322,9 +320,9 @@ impl<'a> System<'a> {
     pub fn diagonal_slots(&self) -> &[usize] {
         &self.diag_slots
     }
-    /// Rest elements.
-    pub fn elements(&self) -> &[Element] {
-        &self.elements
+    /// The rest element of face `f` (kept once, in the assembly's storage order).
+    pub fn element(&self, f: FaceId) -> &Element {
+        &self.stored[self.face_store[f.idx()] as usize].element
     }
     /// Supports.
     pub fn supports(&self) -> &[Plane] {
@@ -370,7 +368,7 @@ impl<'a> System<'a> {
                     .map(|&fi| {
                         let f = FaceId::new(fi);
                         let p = self.face_corners(x, f);
-                        let mut e = self.elements[fi].energy(self.material, f, &p);
+                        let mut e = self.element(f).energy(self.material, f, &p);
                         if let Some(h) = &self.loads.hydrostatic {
                             e -= s * h.work(&p);
                         }
@@ -636,7 +634,7 @@ mod tests {
         for f in mesh.face_ids() {
             let vs = mesh.face_vertices(f);
             let p = vs.map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = sys.elements[f.idx()].evaluate(sys.material, f, &p, true);
+            let (mut e, mut g, mut h) = sys.element(f).evaluate(sys.material, f, &p, true);
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &sys.loads.hydrostatic
