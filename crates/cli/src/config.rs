@@ -446,6 +446,9 @@ pub struct SolverSection {
     pub coarse_start_min_faces: usize,
     /// The simplified mold has this many times fewer faces.
     pub coarse_start_ratio: usize,
+    /// Sweeps of local relaxation of the vertices a rejected Newton step sent too far, before
+    /// the step is shortened (0: plain backtracking).
+    pub relax_sweeps: usize,
 }
 
 impl Default for SolverSection {
@@ -458,6 +461,7 @@ impl Default for SolverSection {
             coarse_start: true,
             coarse_start_min_faces: clothcast_sim::coarse::CoarseOptions::default().min_faces,
             coarse_start_ratio: clothcast_sim::coarse::CoarseOptions::default().ratio,
+            relax_sweeps: clothcast_sim::newton::NewtonOptions::default().relax_sweeps,
         }
     }
 }
@@ -711,6 +715,10 @@ mod tests {
         assert!(e.contains("solver.coarse_start_ratio") && e.contains("at least 2"), "{e}");
         let c2 = Config::from_toml("[solver]\ncoarse_start = false\ncoarse_start_min_faces = 7\n", "c").unwrap();
         assert!(!c2.solver.coarse_start && c2.solver.coarse_start_min_faces == 7);
+        assert_eq!(Config::default().solver.relax_sweeps, 10);
+        assert_eq!(Config::from_toml("[solver]\nrelax_sweeps = 0\n", "c").unwrap().solver.relax_sweeps, 0);
+        let e = Config::from_toml("[solver]\nrelax_sweeps = -1\n", "c").unwrap_err().to_string();
+        assert!(e.contains("relax_sweeps"), "{e}");
         // Round trip through TOML.
         let text = toml::to_string(&c).unwrap();
         assert_eq!(Config::from_toml(&text, "rt").unwrap(), c);

@@ -119,6 +119,20 @@ impl Element {
         (self.area * energy, g, h)
     }
 
+    /// Energy, and the gradient and Hessian block of corner `a` alone (the corner's 3×3
+    /// diagonal block of [`Element::evaluate`]'s projected Hessian): what a vertex-by-vertex
+    /// relaxation needs, without the other eight blocks.
+    pub fn corner(&self, mat: &dyn Material, face: FaceId, x: &[Vec3; 3], a: usize) -> (f64, Vec3, Matrix3<f64>) {
+        let k = self.kinematics(x);
+        let MaterialResponse { energy, stress, tangent } = mat.response(face, &k.strain);
+        let b = self.b_matrix(&k, a);
+        let g = b.transpose() * stress * self.area;
+        let s = positive_part(&Matrix2::new(stress[0], stress[2], stress[2], stress[1]));
+        let geo = (self.grad_n[a].transpose() * s * self.grad_n[a])[0];
+        let h = (b.transpose() * tangent * b + Matrix3::identity() * geo) * self.area;
+        (self.area * energy, g, h)
+    }
+
     /// Eigenvalues λ1 ≥ λ2 of C = FᵀF (squared principal stretches) and the unit direction
     /// of λ1 in the rest (face) frame.
     pub fn principal_stretches(&self, x: &[Vec3; 3]) -> (f64, f64, Vector2<f64>) {
@@ -188,6 +202,23 @@ mod tests {
             assert!(g.norm() < 1e-10, "{}", g.norm());
         }
         assert!((e.area - 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn corner_terms_are_the_blocks_of_the_full_evaluation() {
+        let mat = crate::material::WrinklingStVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let p = tri();
+        let e = Element::from_corners(&p);
+        // Taut, and compressed along one side (wrinkled: S⁺ in the geometric term).
+        for x in [p.map(|v| v * 1.05), [p[0], p[1] * 0.8, p[2] * 1.1]] {
+            let (w, g, h) = e.evaluate(&mat, FaceId(0), &x, true);
+            for a in 0..3 {
+                let (wa, ga, ha) = e.corner(&mat, FaceId(0), &x, a);
+                assert!((wa - w).abs() <= 1e-15 * w.abs().max(1e-300));
+                assert!((ga - g.fixed_rows::<3>(3 * a)).norm() <= 1e-12 * g.norm());
+                assert!((ha - h.fixed_view::<3, 3>(3 * a, 3 * a)).norm() <= 1e-12 * h.norm());
+            }
+        }
     }
 
     #[test]

@@ -15,6 +15,7 @@
 //! - [`constraints`]: clamps and sliding constraints as per-vertex frames.
 //! - [`system`], [`newton`]: assembly with a fixed sparse pattern and the Newton solver with a
 //!   reused symbolic Cholesky factorization.
+//! - [`relax`]: nonlinear block Gauss–Seidel on the vertices a Newton step sent too far.
 //! - [`coarse`]: the coarse start (the equilibrium of a simplified mold as the fine solve's
 //!   starting point).
 //! - [`scenario`]: the one-shot [`simulate`] with suspension modes and precondition checks.
@@ -36,6 +37,7 @@ pub mod hydrostatic;
 pub mod loads;
 pub mod material;
 pub mod newton;
+pub mod relax;
 pub mod scenario;
 pub mod system;
 

@@ -101,6 +101,8 @@ pub struct System<'a> {
     /// corner_start[v + 1]]` (for the forces' reduction).
     corner_start: Vec<usize>,
     corners: Vec<u32>,
+    /// Mean edge length of the mesh (m).
+    mean_edge: f64,
     /// Storage position of each face. Faces are stored sorted by their lowest-numbered vertex, so that
     /// the value slots of one vertex's rows, summed one after the other, read nearby entries
     /// of `hess` (kitten's gather was bound by the latency of those reads), and the per-face
@@ -263,7 +265,13 @@ impl<'a> System<'a> {
             corner_start,
             corners,
             spare_hessian: None,
+            mean_edge: mesh.mean_edge_length(),
         }
+    }
+
+    /// Mean edge length of the mesh (m).
+    pub fn mean_edge_length(&self) -> f64 {
+        self.mean_edge
     }
 
     /// Hand back a Hessian value buffer from [`System::evaluate`] for the next assembly to reuse.
@@ -367,16 +375,7 @@ impl<'a> System<'a> {
                 c.iter()
                     .map(|&fi| {
                         let f = FaceId::new(fi);
-                        let p = self.face_corners(x, f);
-                        let mut e = self.element(f).energy(self.material, f, &p);
-                        if let Some(h) = &self.loads.hydrostatic {
-                            e -= s * h.work(&p);
-                        }
-                        if self.loads.head_pressure != 0.0 {
-                            let y = p.map(|q| q - self.volume_center);
-                            e -= s * self.loads.head_pressure * y[0].dot(&y[1].cross(&y[2])) / 6.0;
-                        }
-                        e
+                        self.face_energy(self.element(f), f, &self.face_corners(x, f), s)
                     })
                     .sum::<f64>()
             })
@@ -384,6 +383,128 @@ impl<'a> System<'a> {
         let mut e: f64 = faces.iter().sum();
         e += s * self.weight_energy(x);
         e + self.contact_energy(x)
+    }
+
+    /// A face's share of Π (elastic energy minus the work of its pressures) at corners `p`.
+    #[inline]
+    fn face_energy(&self, element: &Element, f: FaceId, p: &[Vec3; 3], s: f64) -> f64 {
+        let mut e = element.energy(self.material, f, p);
+        if let Some(h) = &self.loads.hydrostatic {
+            e -= s * h.work(p);
+        }
+        if self.loads.head_pressure != 0.0 {
+            let y = p.map(|q| q - self.volume_center);
+            e -= s * self.loads.head_pressure * y[0].dot(&y[1].cross(&y[2])) / 6.0;
+        }
+        e
+    }
+
+    /// Every face's share of Π (see [`System::energy`]) at `x`, in the faces' storage order,
+    /// into `out`.
+    pub fn face_energies(&self, x: &[Vec3], s: f64, out: &mut Vec<f64>) {
+        out.resize(self.stored.len(), 0.0);
+        out.par_iter_mut().zip(&self.stored).with_min_len(CHUNK).for_each(|(o, sf)| {
+            *o = self.face_energy(&sf.element, sf.face, &sf.vertices.map(|v| x[v.idx()]), s);
+        });
+    }
+
+    /// The free vertices of the faces whose share of Π rose most from `base` to `trial`
+    /// ([`System::face_energies`] at two points): the faces are taken by decreasing rise until
+    /// they hold `fraction` of the total rise. Sorted, without duplicates.
+    pub fn overshooting_vertices(&self, base: &[f64], trial: &[f64], fraction: f64) -> Vec<usize> {
+        let mut rise: Vec<(f64, u32)> = base
+            .iter()
+            .zip(trial)
+            .enumerate()
+            .filter(|(_, (b, t))| t > b)
+            .map(|(i, (b, t))| (t - b, i as u32))
+            .collect();
+        rise.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let total: f64 = rise.iter().map(|r| r.0).sum();
+        let mut held = 0.0;
+        let mut out = Vec::new();
+        for &(r, i) in &rise {
+            if held >= fraction * total {
+                break;
+            }
+            held += r;
+            out.extend(self.stored[i as usize].vertices.iter().map(|v| v.idx()).filter(|&v| self.frames[v].1 < 3));
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// The constraint frame of vertex `v` (None: the identity) and its number of constrained
+    /// leading axes.
+    pub(crate) fn frame(&self, v: usize) -> (Option<Matrix3<f64>>, usize) {
+        self.frames[v]
+    }
+
+    /// The vertices that share a face with `v` (with repetitions).
+    pub(crate) fn vertex_neighbours(&self, v: usize) -> impl Iterator<Item = usize> + '_ {
+        self.corners[self.corner_start[v]..self.corner_start[v + 1]].iter().flat_map(move |&c| {
+            let (sf, a) = (&self.stored[c as usize / 3], c as usize % 3);
+            [sf.vertices[(a + 1) % 3].idx(), sf.vertices[(a + 2) % 3].idx()]
+        })
+    }
+
+    /// The part of Π that depends on vertex `v` (its faces, its weight, its contacts) with `v`
+    /// at `y` and every other vertex at `x`; with `derivatives`, also its gradient and its
+    /// Hessian block with respect to `y` (elastic part projected as in [`System::evaluate`]).
+    pub(crate) fn vertex_terms(
+        &self,
+        x: &[Vec3],
+        v: usize,
+        y: &Vec3,
+        s: f64,
+        derivatives: bool,
+    ) -> (f64, Vec3, Matrix3<f64>) {
+        let (mut e, mut g, mut h) = (0.0, Vec3::zeros(), Matrix3::zeros());
+        for &c in &self.corners[self.corner_start[v]..self.corner_start[v + 1]] {
+            let (sf, a) = (&self.stored[c as usize / 3], c as usize % 3);
+            let mut p = sf.vertices.map(|w| x[w.idx()]);
+            p[a] = *y;
+            if !derivatives {
+                e += self.face_energy(&sf.element, sf.face, &p, s);
+                continue;
+            }
+            let (fe, fg, fh) = sf.element.corner(self.material, sf.face, &p, a);
+            e += fe;
+            g += fg;
+            h += fh;
+            if let Some(hy) = &self.loads.hydrostatic {
+                let mut hh = Mat9::zeros();
+                if let Some((w, wg)) = hy.work_derivatives_into(&p, Some((&mut hh, s))) {
+                    e -= s * w;
+                    g -= wg.fixed_rows::<3>(3 * a) * s;
+                    h += hh.fixed_view::<3, 3>(3 * a, 3 * a);
+                }
+            }
+            let ph = self.loads.head_pressure;
+            if ph != 0.0 {
+                let (vol, vg, vh) = face_volume(&p, &self.volume_center);
+                e -= s * ph * vol;
+                g -= vg.fixed_rows::<3>(3 * a) * (s * ph);
+                h -= vh.fixed_view::<3, 3>(3 * a, 3 * a) * (s * ph);
+            }
+        }
+        if let Some((_, up)) = self.loads.self_weight {
+            let w = s * self.vertex_mass_weight[v];
+            e += w * y.dot(&up);
+            g += up * w;
+        }
+        if let Some(b) = self.barrier {
+            for pl in &self.supports {
+                let (be, d1, d2) = b.eval(pl.distance(y));
+                if be != 0.0 {
+                    e += be;
+                    g += pl.normal * d1;
+                    h += pl.normal * pl.normal.transpose() * d2;
+                }
+            }
+        }
+        (e, g, h)
     }
 
     fn weight_energy(&self, x: &[Vec3]) -> f64 {

@@ -60,6 +60,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
                 config::FactorPrecision::Double => FactorPrecision::Double,
                 config::FactorPrecision::Single => FactorPrecision::Single,
             },
+            relax_sweeps: cfg.solver.relax_sweeps,
             ..Default::default()
         },
         coarse: cfg.solver.coarse_start.then_some(clothcast_sim::coarse::CoarseOptions {
