@@ -3,11 +3,15 @@
 //! Newton's iterations on a large mesh go mostly to carrying the mold from the stress-free
 //! target to its tensioned shape (the sag, the bulging walls, the wrinkled bridges over concave
 //! regions), and their count grows with the resolution (kitten under the default scenario,
-//! simplified to 6.6k faces: 41 iterations, to 27k: 58, the full 106k: 106). Solved first on a
-//! copy with an eighth of the faces (kitten: 0.8 s, about four fine iterations' time) and
-//! carried over, that motion is done before the fine solve starts, which then settles the
-//! fine-scale detail (kitten: 106 → 71 iterations at the default ratio, 44–82 over ratios
-//! 6–12).
+//! simplified to 6.6k faces: 41 iterations, to 27k: 58, the full 106k: 106, before the
+//! relaxed line search). Solved first on a copy with a quarter of the faces and carried over,
+//! that motion is done before the fine solve starts, which then settles the fine-scale detail.
+//! The copy's own solve starts the same way from a copy of it with a quarter of its faces, as
+//! long as that keeps [`CASCADE_MIN_FACES`] (a cascade: kitten 106k → 26.5k → 6.6k faces).
+//! Measured with the relaxed line search on kitten and bunny_hr (60k faces) at heights 0.4,
+//! 0.5, 0.7 m and lying along +y and −x (ten solves): 112.5 s in all with one level at 1/8,
+//! 96.7 s with one level at 1/4, 91.7 s with the cascade; bunny_hr lying along +y, the
+//! hardest, 189 → 84 fine iterations.
 //!
 //! The coarse mesh keeps every constrained vertex and every boundary vertex of the fine one
 //! (locked in the simplification), so its clamps are the same; loads and supports are the
@@ -43,18 +47,23 @@ pub struct CoarseOptions {
     /// 77 iterations from the target, 85–107 from coarse starts of 1k–5k faces; spot, 23k
     /// faces: 23 against 16–20).
     pub min_faces: usize,
-    /// The simplified mesh has this many times fewer faces (at least 2).
+    /// The simplified mesh has this many times fewer faces (at least 2); so has each further
+    /// level of the cascade.
     pub ratio: usize,
 }
 
 impl Default for CoarseOptions {
     fn default() -> Self {
-        Self { min_faces: 50_000, ratio: 8 }
+        Self { min_faces: 50_000, ratio: 4 }
     }
 }
 
 /// Coarse meshes below this many faces are not worth a solve (a ratio too large for the mesh).
 pub const COARSE_MIN_FACES: usize = 500;
+
+/// A coarse level gets a coarse start of its own (a cascade) when the next level down would
+/// still have this many faces (kitten: 106k → 26.5k → 6.6k faces).
+pub const CASCADE_MIN_FACES: usize = 2000;
 
 /// The coarse solve needs no more accuracy than this relative residual: the fine solve starts
 /// from it and converges to its own tolerance.
@@ -87,6 +96,16 @@ pub struct CoarseStats {
     pub fine_iterations_discarded: usize,
     /// Its seconds.
     pub fine_seconds_discarded: f64,
+    /// The coarse start of this coarse level (the next level of the cascade), if it was
+    /// tried; `used` says whether the coarse solve started from it.
+    pub coarser: Option<Box<CoarseStats>>,
+}
+
+impl CoarseStats {
+    /// The levels of the cascade, finest first.
+    pub fn levels(&self) -> impl Iterator<Item = &CoarseStats> {
+        std::iter::successors(Some(self), |s| s.coarser.as_deref())
+    }
 }
 
 /// The fine problem a coarse start is made for.
@@ -103,12 +122,13 @@ pub(crate) struct Problem<'a> {
 }
 
 /// The starting positions for the problem's mesh from the equilibrium of a simplified copy of
-/// it with about `target_faces` faces, or why there are none (the statistics say how far it
-/// got).
-pub(crate) fn coarse_start(pb: &Problem<'_>, target_faces: usize) -> (Option<Vec<Vec3>>, CoarseStats) {
+/// it with `ratio` times fewer faces, or why there are none (the statistics say how far it
+/// got). The copy's own solve starts from a coarser copy again while that would keep at
+/// least [`CASCADE_MIN_FACES`] faces.
+pub(crate) fn coarse_start(pb: &Problem<'_>, ratio: usize) -> (Option<Vec<Vec3>>, CoarseStats) {
     let t0 = Instant::now();
     let mut stats = CoarseStats::default();
-    let x = transfer(pb, target_faces, &mut stats);
+    let x = transfer(pb, ratio, &mut stats);
     if let Err(why) = &x {
         stats.note = Some(why.clone());
     }
@@ -117,8 +137,9 @@ pub(crate) fn coarse_start(pb: &Problem<'_>, target_faces: usize) -> (Option<Vec
 }
 
 /// The body of [`coarse_start`]: the positions, or why there are none.
-fn transfer(pb: &Problem<'_>, target_faces: usize, stats: &mut CoarseStats) -> Result<Vec<Vec3>, String> {
+fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<Vec<Vec3>, String> {
     let Problem { mesh, material, loads, constraints, supports, p_max, opts } = *pb;
+    let target_faces = mesh.n_faces() / ratio.max(2);
     if target_faces < COARSE_MIN_FACES {
         return Err(format!("a coarse mesh of {target_faces} faces is too small (at least {COARSE_MIN_FACES})"));
     }
@@ -144,8 +165,19 @@ fn transfer(pb: &Problem<'_>, target_faces: usize, stats: &mut CoarseStats) -> R
     let barrier = (!supports.is_empty()).then(|| crate::scenario::contact_barrier(mesh, p_max, material));
     let mut sys = System::new(c, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
-    let res = solve(&mut sys, coarse.mesh.positions().as_slice().to_vec(), &opts, &mut |_| {})
-        .map_err(|e| format!("coarse solve failed: {e}"))?;
+    // The next level of the cascade, if it is still large enough; whatever it gives, the coarse
+    // solve can always start from its target instead.
+    let mut start = None;
+    if coarse.mesh.n_faces() / ratio.max(2) >= CASCADE_MIN_FACES {
+        let pb = Problem { mesh: &coarse.mesh, constraints: &cons, opts: &opts, ..*pb };
+        let (x, mut st) = coarse_start(&pb, ratio);
+        st.used = x.is_some();
+        tracing::debug!(faces = st.faces, iterations = st.newton_iterations, used = st.used, "coarser level");
+        start = x;
+        stats.coarser = Some(Box::new(st));
+    }
+    let start = start.unwrap_or_else(|| coarse.mesh.positions().as_slice().to_vec());
+    let res = solve(&mut sys, start, &opts, &mut |_| {}).map_err(|e| format!("coarse solve failed: {e}"))?;
     stats.newton_iterations = res.stats.iterations;
     stats.converged = res.termination == Termination::Converged;
     if !stats.converged {

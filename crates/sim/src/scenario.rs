@@ -368,7 +368,7 @@ pub fn simulate(
                 p_max,
                 opts: &sc.newton,
             };
-            coarse_start(&pb, mesh.n_faces() / co.ratio)
+            coarse_start(&pb, co.ratio)
         });
     let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
     let res = match &mut coarse {

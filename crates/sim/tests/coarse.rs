@@ -118,3 +118,33 @@ fn materials_with_per_face_data_are_never_coarsened() {
     assert!(r.stats.converged);
     assert!(r.stats.coarse_start.is_none());
 }
+
+/// A cascade: with a ratio of 2, a 20k-face sphere's coarse copy (10k faces) starts from a
+/// coarser copy again, and so on while a level keeps at least CASCADE_MIN_FACES faces; every
+/// level is used, and the equilibrium is the plain solve's.
+#[test]
+fn a_cascade_of_coarse_levels_reaches_the_same_equilibrium() {
+    use clothcast_sim::coarse::CASCADE_MIN_FACES;
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mesh = shapes::icosphere(5, 0.2);
+    let sc = Scenario { coarse: Some(CoarseOptions { min_faces: 1000, ratio: 2 }), ..Default::default() };
+    let c = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+    let p = simulate(&mesh, &mat, &Scenario { coarse: None, ..Default::default() }, &mut |_| {}).unwrap();
+    assert!(c.stats.converged && p.stats.converged);
+    let st = c.stats.coarse_start.as_ref().expect("tried");
+    let levels: Vec<_> = st.levels().collect();
+    assert!(levels.len() >= 3, "{st:?}");
+    for (fine, coarse) in levels.iter().zip(levels.iter().skip(1)) {
+        assert!(coarse.used && coarse.converged, "{coarse:?}");
+        assert!(
+            2 * coarse.faces <= fine.faces && coarse.faces >= CASCADE_MIN_FACES,
+            "{} → {}",
+            fine.faces,
+            coarse.faces
+        );
+        assert!(coarse.seconds < fine.seconds, "a level's time includes the coarser ones'");
+    }
+    assert!(levels.last().expect("levels").faces / 2 < CASCADE_MIN_FACES, "the cascade stops at the floor");
+    let gap = max_gap(c.positions.as_slice(), p.positions.as_slice());
+    assert!(gap <= 1e-6 * p.stats.max_displacement_m, "equilibria {gap} m apart");
+}

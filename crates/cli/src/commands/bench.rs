@@ -21,7 +21,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
     let mut rows = Vec::new();
     if !args.json {
         println!(
-            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>8} {:>9} {:>13}",
+            "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>8} {:>9}  coarse start",
             "mesh",
             "faces",
             "dofs",
@@ -33,7 +33,6 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "prec",
             "ratio",
             "converged",
-            "coarse start"
         );
     }
     for m in meshes {
@@ -64,16 +63,22 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "pcg_iterations": s.solver.pcg_iterations,
             "coarse_start": s.coarse_start,
         });
-        // The coarse start, if tried: its faces and iterations ("-" if not tried, "unused" if
-        // tried but not used).
+        // The coarse start, if tried: the faces and iterations of each level used, finest
+        // first ("-" if not tried, "unused" if tried but not used).
         let coarse = match &s.coarse_start {
             None => "-".to_string(),
-            Some(c) if c.used => format!("{}f {}it", c.faces, c.newton_iterations),
+            Some(c) if c.used => c
+                .levels()
+                .enumerate()
+                .take_while(|(i, l)| *i == 0 || l.used)
+                .map(|(_, l)| format!("{}f {}it", l.faces, l.newton_iterations))
+                .collect::<Vec<_>>()
+                .join(" < "),
             Some(_) => "unused".to_string(),
         };
         if !args.json {
             println!(
-                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>6} {:>8.1} {:>9} {:>13}",
+                "{:<28} {:>7} {:>7} {:>6} {:>6} {:>9.2} {:>9.3} {:>10.3} {:>6} {:>8.1} {:>9}  {}",
                 name,
                 input.mesh.n_faces(),
                 s.solver.dofs,
