@@ -20,6 +20,7 @@
 
 use crate::element::{Mat9, Vec9};
 use clothcast_mesh::Vec3;
+use nalgebra::Matrix3;
 
 /// Value, gradient and Hessian of a function of three variables.
 #[derive(Clone, Copy, Debug)]
@@ -245,6 +246,25 @@ impl Hydrostatic {
         Some((w, g))
     }
 
+    /// Pressure work `W_f` of a face with its gradient and Hessian block with respect to
+    /// corner `a` alone (the corner's 3×3 diagonal block of [`Hydrostatic::work_derivatives`];
+    /// None if the face is dry): what a vertex-by-vertex relaxation needs.
+    pub fn work_corner(&self, x: &[Vec3; 3], a: usize) -> Option<(f64, Vec3, Matrix3<f64>)> {
+        let d = x.map(|p| self.depth(&p));
+        if d.iter().all(|&v| v <= 0.0) {
+            return None;
+        }
+        let j = mean_sq_positive_depth(d);
+        let w = -self.up;
+        let s = w.dot(&(x[1] - x[0]).cross(&(x[2] - x[0])));
+        // ∂s/∂x_a as in `triple`; ∂²s/∂x_a² = 0; ∂J/∂x_a = −J_a up, ∂²J/∂x_a² = J_aa up upᵀ.
+        let sg = (x[(a + 1) % 3] - x[(a + 2) % 3]).cross(&w);
+        let jg = -self.up * j.g[a];
+        let c = 0.25 * self.rho_g;
+        let h = (sg * jg.transpose() + jg * sg.transpose() + self.up * self.up.transpose() * (j.h[a][a] * s)) * c;
+        Some((c * s * j.v, (sg * j.v + jg * s) * c, h))
+    }
+
     /// Liquid volume enclosed below the level by an outward-oriented face (its contribution).
     pub fn face_liquid_volume(&self, x: &[Vec3; 3]) -> f64 {
         let d = x.map(|p| self.depth(&p));
@@ -278,6 +298,27 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The corner blocks are those of the full derivatives, wet, crossing and partial faces.
+    #[test]
+    fn corner_blocks_match_the_full_derivatives() {
+        let h = Hydrostatic { rho_g: 1460.0 * 9.81, up: Vec3::new(0.1, 0.2, 0.97).normalize(), fill_height: 0.5 };
+        for x in [
+            [Vec3::new(0.0, 0.0, 0.1), Vec3::new(0.3, 0.05, 0.2), Vec3::new(0.1, 0.4, 0.15)],
+            [Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.05, 0.8), Vec3::new(0.1, 0.4, 0.9)],
+            [Vec3::new(0.0, 0.0, 0.2), Vec3::new(0.3, 0.05, 0.3), Vec3::new(0.1, 0.4, 0.9)],
+        ] {
+            let (w, g, hh) = h.work_derivatives(&x).expect("wet");
+            for a in 0..3 {
+                let (wa, ga, ha) = h.work_corner(&x, a).expect("wet");
+                assert!((wa - w).abs() <= 1e-15 * w.abs());
+                assert!((ga - g.fixed_rows::<3>(3 * a)).norm() <= 1e-12 * g.norm());
+                assert!((ha - hh.fixed_view::<3, 3>(3 * a, 3 * a)).norm() <= 1e-12 * hh.norm(), "{a}");
+            }
+        }
+        let dry = [Vec3::new(0.0, 0.0, 0.6), Vec3::new(0.3, 0.05, 0.7), Vec3::new(0.1, 0.4, 0.9)];
+        assert!(h.work_corner(&dry, 1).is_none());
     }
 
     #[test]

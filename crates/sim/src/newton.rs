@@ -295,8 +295,8 @@ pub fn solve(
     stats.single_precision = use_single;
     let mut poor_preconditioner = 0usize;
     let mut pcg_promising = false;
-    // Per-face energies at the iterate (computed once per iteration, when a relaxation needs
-    // them) and at a trial point.
+    // Per-face energies at the iterate (from its evaluation, once per iteration, when a
+    // relaxation needs them) and at a trial point.
     let (mut base_faces, mut trial_faces) = (Vec::new(), Vec::new());
     let relax_tolerance = RELAX_TOLERANCE * sys.mean_edge_length();
     let termination;
@@ -468,17 +468,17 @@ pub fn solve(
                 e <= ev.energy + 1e-4 * alpha * slope || (-alpha * slope <= noise && e <= ev.energy + noise)
             };
             let mut have_base = false;
+            let relaxing = opts.relax_sweeps > 0;
             while alpha > 1e-10 {
                 sys.apply_step(&x, &step, alpha, &mut trial);
-                let mut e = sys.energy(&trial, s);
+                let mut e = sys.energy_faces(&trial, s, relaxing.then_some(&mut trial_faces));
                 // Before shortening the step: relax the vertices it sent too far.
-                if !sufficient(e, alpha) && opts.relax_sweeps > 0 {
+                if !sufficient(e, alpha) && relaxing {
                     let tr = Instant::now();
                     if !have_base {
-                        sys.face_energies(&x, s, &mut base_faces);
+                        sys.evaluated_face_energies(&mut base_faces);
                         have_base = true;
                     }
-                    sys.face_energies(&trial, s, &mut trial_faces);
                     let seeds = sys.overshooting_vertices(&base_faces, &trial_faces, opts.relax_fraction);
                     let rep = sys.relax(&mut trial, s, &seeds, opts.relax_sweeps, relax_tolerance);
                     e = sys.energy(&trial, s);

@@ -126,16 +126,28 @@ impl System<'_> {
             }
             hf[(i, i)] = free_scale;
         }
-        let eig = hf.symmetric_eigen();
-        let lmax = eig.eigenvalues.max();
-        if !(lmax > 0.0) {
-            return None;
-        }
-        let mut df = Vec3::zeros();
-        for i in 0..3 {
-            let q = eig.eigenvectors.column(i);
-            df -= q * (q.dot(&gf) / eig.eigenvalues[i].max(EIGEN_FLOOR * lmax));
-        }
+        // Where no eigenvalue can be below the floor, the floored eigen-decomposition's step is
+        // the plain Newton step: a Cholesky solve (most vertices). For a positive definite 3×3
+        // block λ_min = det/(λ_a λ_b) ≥ det/(tr/2)² and λ_max ≤ tr, so det > floor · tr³/4
+        // keeps λ_min above floor · λ_max.
+        let tr = hf.trace();
+        let safe = tr > 0.0 && hf.determinant() > EIGEN_FLOOR * tr * tr * tr / 4.0;
+        let df = match hf.cholesky().filter(|_| safe) {
+            Some(c) => -c.solve(&gf),
+            None => {
+                let eig = hf.symmetric_eigen();
+                let lmax = eig.eigenvalues.max();
+                if !(lmax > 0.0) {
+                    return None;
+                }
+                let mut df = Vec3::zeros();
+                for i in 0..3 {
+                    let q = eig.eigenvectors.column(i);
+                    df -= q * (q.dot(&gf) / eig.eigenvalues[i].max(EIGEN_FLOOR * lmax));
+                }
+                df
+            }
+        };
         let d = r * df;
         let slope = g.dot(&d);
         if !(slope < 0.0) {

@@ -368,19 +368,36 @@ impl<'a> System<'a> {
 
     /// Potential energy only; +∞ if a vertex reached or crossed a support.
     pub fn energy(&self, x: &[Vec3], s: f64) -> f64 {
-        let faces: Vec<f64> = (0..self.mesh.n_faces())
-            .collect::<Vec<_>>()
-            .par_chunks(CHUNK)
-            .map(|c| {
-                c.iter()
-                    .map(|&fi| {
-                        let f = FaceId::new(fi);
-                        self.face_energy(self.element(f), f, &self.face_corners(x, f), s)
+        self.energy_faces(x, s, None)
+    }
+
+    /// Potential energy (as [`System::energy`], to the bit), and with `faces` every face's
+    /// share of it (elastic energy minus the work of its pressures), by face id.
+    pub fn energy_faces(&self, x: &[Vec3], s: f64, faces: Option<&mut Vec<f64>>) -> f64 {
+        let share = |fi: usize| {
+            let f = FaceId::new(fi);
+            self.face_energy(self.element(f), f, &self.face_corners(x, f), s)
+        };
+        let chunks: Vec<f64> = match faces {
+            Some(out) => {
+                out.resize(self.mesh.n_faces(), 0.0);
+                out.par_chunks_mut(CHUNK)
+                    .enumerate()
+                    .map(|(c, o)| {
+                        for (i, v) in o.iter_mut().enumerate() {
+                            *v = share(c * CHUNK + i);
+                        }
+                        o.iter().sum::<f64>()
                     })
-                    .sum::<f64>()
-            })
-            .collect();
-        let mut e: f64 = faces.iter().sum();
+                    .collect()
+            }
+            None => (0..self.mesh.n_faces())
+                .collect::<Vec<_>>()
+                .par_chunks(CHUNK)
+                .map(|c| c.iter().map(|&fi| share(fi)).sum::<f64>())
+                .collect(),
+        };
+        let mut e: f64 = chunks.iter().sum();
         e += s * self.weight_energy(x);
         e + self.contact_energy(x)
     }
@@ -399,18 +416,16 @@ impl<'a> System<'a> {
         e
     }
 
-    /// Every face's share of Π (see [`System::energy`]) at `x`, in the faces' storage order,
-    /// into `out`.
-    pub fn face_energies(&self, x: &[Vec3], s: f64, out: &mut Vec<f64>) {
-        out.resize(self.stored.len(), 0.0);
-        out.par_iter_mut().zip(&self.stored).with_min_len(CHUNK).for_each(|(o, sf)| {
-            *o = self.face_energy(&sf.element, sf.face, &sf.vertices.map(|v| x[v.idx()]), s);
-        });
+    /// Every face's share of Π at the point of the last [`System::evaluate`], by face id, into
+    /// `out` (as [`System::energy_faces`] gives them, up to round-off).
+    pub fn evaluated_face_energies(&self, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(self.face_store.iter().map(|&sp| self.buf[sp as usize].energy));
     }
 
-    /// The free vertices of the faces whose share of Π rose most from `base` to `trial`
-    /// ([`System::face_energies`] at two points): the faces are taken by decreasing rise until
-    /// they hold `fraction` of the total rise. Sorted, without duplicates.
+    /// The free vertices of the faces whose share of Π rose most from `base` to `trial` (by
+    /// face id, at two points): the faces are taken by decreasing rise until they hold
+    /// `fraction` of the total rise. Sorted, without duplicates.
     pub fn overshooting_vertices(&self, base: &[f64], trial: &[f64], fraction: f64) -> Vec<usize> {
         let mut rise: Vec<(f64, u32)> = base
             .iter()
@@ -428,7 +443,8 @@ impl<'a> System<'a> {
                 break;
             }
             held += r;
-            out.extend(self.stored[i as usize].vertices.iter().map(|v| v.idx()).filter(|&v| self.frames[v].1 < 3));
+            let vs = self.mesh.face_vertices(FaceId::new(i as usize));
+            out.extend(vs.iter().map(|v| v.idx()).filter(|&v| self.frames[v].1 < 3));
         }
         out.sort_unstable();
         out.dedup();
@@ -473,13 +489,10 @@ impl<'a> System<'a> {
             e += fe;
             g += fg;
             h += fh;
-            if let Some(hy) = &self.loads.hydrostatic {
-                let mut hh = Mat9::zeros();
-                if let Some((w, wg)) = hy.work_derivatives_into(&p, Some((&mut hh, s))) {
-                    e -= s * w;
-                    g -= wg.fixed_rows::<3>(3 * a) * s;
-                    h += hh.fixed_view::<3, 3>(3 * a, 3 * a);
-                }
+            if let Some((w, wg, wh)) = self.loads.hydrostatic.as_ref().and_then(|hy| hy.work_corner(&p, a)) {
+                e -= s * w;
+                g -= wg * s;
+                h -= wh * s;
             }
             let ph = self.loads.head_pressure;
             if ph != 0.0 {
