@@ -65,6 +65,16 @@ pub const COARSE_MIN_FACES: usize = 500;
 /// still have this many faces (kitten: 106k → 26.5k → 6.6k faces).
 pub const CASCADE_MIN_FACES: usize = 2000;
 
+/// Face counts tried for a simplification (the target, then each a quarter larger) before
+/// the coarse start is given up.
+pub const SIMPLIFY_TRIES: usize = 3;
+
+/// Same components, Euler characteristic and boundary loops.
+fn same_topology(m: &Mesh, c: &Mesh) -> bool {
+    (c.n_components(), c.euler_characteristic(), c.boundary_loops().len())
+        == (m.n_components(), m.euler_characteristic(), m.boundary_loops().len())
+}
+
 /// The coarse solve needs no more accuracy than this relative residual: the fine solve starts
 /// from it and converges to its own tolerance.
 pub const COARSE_TOLERANCE: f64 = 1e-6;
@@ -145,25 +155,42 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     }
     let clock = Instant::now();
     let locked: Vec<bool> = mesh.vertices().map(|v| constraints.n_fixed(v) > 0).collect();
-    let coarse = simplify(mesh, target_faces, &locked).map_err(|e| format!("simplification failed: {e}"))?;
-    tracing::debug!(seconds = clock.elapsed().as_secs_f64(), faces = coarse.mesh.n_faces(), "coarse mesh");
+    // The simplifier may return an invalid mesh (a non-manifold edge) or change the topology
+    // at one face count and not at another: a few targets are tried, each a quarter larger.
+    let mut tries = Vec::new();
+    let mut coarse = None;
+    for k in 0..SIMPLIFY_TRIES {
+        let target = target_faces * (4 + k) / 4;
+        match simplify(mesh, target, &locked) {
+            Err(e) => tries.push(format!("simplification to {target} faces failed: {e}")),
+            Ok(c) if 2 * c.mesh.n_faces() > mesh.n_faces() => {
+                stats.faces = c.mesh.n_faces();
+                return Err(format!("the simplified mesh keeps {} of {} faces", c.mesh.n_faces(), mesh.n_faces()));
+            }
+            Ok(c) if !same_topology(mesh, &c.mesh) => {
+                tries.push(format!("the simplification to {target} faces changed the topology"))
+            }
+            Ok(c) => {
+                coarse = Some(c);
+                break;
+            }
+        }
+    }
+    let Some(coarse) = coarse else { return Err(tries.join("; ")) };
+    tracing::debug!(
+        seconds = clock.elapsed().as_secs_f64(),
+        faces = coarse.mesh.n_faces(),
+        tries = tries.len() + 1,
+        "coarse mesh"
+    );
     stats.faces = coarse.mesh.n_faces();
     stats.vertices = coarse.mesh.n_vertices();
-    if 2 * coarse.mesh.n_faces() > mesh.n_faces() {
-        return Err(format!("the simplified mesh keeps {} of {} faces", coarse.mesh.n_faces(), mesh.n_faces()));
-    }
-    let (m, c) = (mesh, &coarse.mesh);
-    if (c.n_components(), c.euler_characteristic(), c.boundary_loops().len())
-        != (m.n_components(), m.euler_characteristic(), m.boundary_loops().len())
-    {
-        return Err("the simplification changed the topology".into());
-    }
     let cons = constraints.restrict(&coarse.parent);
     // The fine mesh's contact barrier: the coarse mold then rests at the fine one's contact
     // distance, which its start inherits (sized for the coarse mesh, the barrier's wider zone
     // left the bag on a floor of the tests 48 fine iterations from the start, against 14).
     let barrier = (!supports.is_empty()).then(|| crate::scenario::contact_barrier(mesh, p_max, material));
-    let mut sys = System::new(c, material, loads.clone(), &cons, supports.to_vec(), barrier);
+    let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
     // The next level of the cascade, if it is still large enough; whatever it gives, the coarse
     // solve can always start from its target instead.
