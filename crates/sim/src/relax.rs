@@ -3,12 +3,13 @@
 //! Newton's step is right for the mold as a whole, but not for every vertex: a vertex among
 //! wrinkled or slack faces has next to no stiffness across the wrinkles, so the step moves it a
 //! long way, and where its faces tighten again the energy rises far beyond the quadratic
-//! model. On camelhead, a step that would have lowered Π by 0.04 J raised it by 13 572 J, all
-//! of it in the three faces of one vertex; backtracking then shortened the whole step to 1/64
-//! for the sake of that vertex, and the solve crawled (97 iterations). Relaxing the few
+//! model. On camelhead, a step that would have lowered Π by 0.04 J raised it by 13 572 J, 90%
+//! of it in a single face; backtracking then shortened the whole step to 1/64 for the sake of
+//! that face's vertices, and the solve crawled (97 iterations). Relaxing the few
 //! vertices that overshoot, each to the minimum of its own energy with its neighbours held,
 //! repairs such a step where it went wrong and keeps it everywhere else (see
-//! [`crate::newton`]: camelhead 97 → 54 iterations, kitten's fine solve 71 → 30).
+//! [`crate::newton`]: camelhead 97 → 72 iterations, kitten's fine solve 71 → 29 with the
+//! coarse start of the time).
 //!
 //! Each vertex takes a Newton step on its local energy (its faces, its weight, its contacts):
 //! the 3×3 block of the Hessian, its eigenvalues floored to keep it positive definite, the
