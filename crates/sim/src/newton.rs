@@ -352,13 +352,13 @@ pub fn solve(
                 let eta = r.sqrt().min(0.1);
                 match pcg(sys.pattern(), &vals, &|z: &mut [f64]| f.apply(z), &rhs, eta * gnorm, PCG_MAX_ITER, &mut step)
                 {
-                    Some(k) => {
+                    Ok(k) => {
                         stats.pcg_iterations += k;
                         stats.reused_factor_steps += 1;
                         true
                     }
-                    None => {
-                        stats.pcg_iterations += PCG_MAX_ITER;
+                    Err(k) => {
+                        stats.pcg_iterations += k;
                         pcg_promising = false;
                         false
                     }
@@ -420,12 +420,12 @@ pub fn solve(
                     );
                     stats.solve_seconds += ts.elapsed().as_secs_f64();
                     match res {
-                        Some(k) => {
+                        Ok(k) => {
                             stats.pcg_iterations += k;
                             break 'outer true;
                         }
-                        None => {
-                            stats.pcg_iterations += SINGLE_PCG_MAX_ITER;
+                        Err(k) => {
+                            stats.pcg_iterations += k;
                             stats.single_fallbacks += 1;
                             poor_preconditioner += 1;
                             tracing::debug!("single-precision factor not accurate enough; double precision");
@@ -637,7 +637,8 @@ const PCG_MAX_ITER: usize = 4;
 
 /// Preconditioned conjugate gradients on `A x = b` (A in `pattern` with `vals`), preconditioned
 /// by a Cholesky factor of a nearby matrix (an earlier Newton step's). Starts from x = 0.
-/// Returns the iteration count, or None on negative curvature or no convergence.
+/// Returns the iteration count, or, on negative curvature or no convergence, `Err` with the
+/// iterations (matrix products) spent.
 fn pcg(
     pattern: &SymmetricPattern,
     vals: &[f64],
@@ -646,7 +647,7 @@ fn pcg(
     tol: f64,
     max_iter: usize,
     x: &mut [f64],
-) -> Option<usize> {
+) -> Result<usize, usize> {
     let n = b.len();
     x.iter_mut().for_each(|v| *v = 0.0);
     let mut r = b.to_vec();
@@ -659,7 +660,7 @@ fn pcg(
         pattern.mul_vec_parallel(vals, &p, &mut ap);
         let pap = dot(&p, &ap);
         if !(pap > 0.0) {
-            return None;
+            return Err(k + 1);
         }
         let alpha = rz / pap;
         for i in 0..n {
@@ -667,7 +668,7 @@ fn pcg(
             r[i] -= alpha * ap[i];
         }
         if norm(&r) <= tol {
-            return Some(k + 1);
+            return Ok(k + 1);
         }
         z.copy_from_slice(&r);
         m(&mut z);
@@ -678,7 +679,7 @@ fn pcg(
             p[i] = z[i] + beta * p[i];
         }
     }
-    None
+    Err(max_iter)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
