@@ -29,7 +29,7 @@
 //! from the target, as without a coarse start.
 
 use crate::constraints::Constraints;
-use crate::loads::Plane;
+use crate::loads::{Barrier, Plane};
 use crate::material::Material;
 use crate::newton::{NewtonOptions, Termination, solve};
 use crate::system::{Loads, System};
@@ -65,8 +65,8 @@ pub const COARSE_MIN_FACES: usize = 500;
 /// still have this many faces (kitten: 106k → 26.5k → 6.6k faces).
 pub const CASCADE_MIN_FACES: usize = 2000;
 
-/// Face counts tried for a simplification (the target, then each a quarter larger) before
-/// the coarse start is given up.
+/// Face counts tried for a simplification (the target, then 1.25 and 1.5 times it) before the
+/// coarse start is given up.
 pub const SIMPLIFY_TRIES: usize = 3;
 
 /// Same components, Euler characteristic and boundary loops.
@@ -92,11 +92,13 @@ pub struct CoarseStats {
     pub converged: bool,
     /// Whether the fine solve's result is the one that started from the coarse equilibrium
     /// (false: it was not usable, or the fine solve from it failed and was redone from the
-    /// target; `note` says which).
+    /// target; `note` says which). In a nested level (`coarser`): whether the solve of the
+    /// level above it started from it and converged.
     pub used: bool,
     /// Why the coarse start was not used, if it was not.
     pub note: Option<String>,
-    /// Seconds: simplification, coarse solve and the transfer to the fine mesh.
+    /// Seconds: simplification (every try), the coarser levels, the coarse solve and the
+    /// transfer to the finer mesh.
     pub seconds: f64,
     /// Fine vertices moved back in front of a support (to a fifth of their starting distance)
     /// after the transfer.
@@ -126,8 +128,11 @@ pub(crate) struct Problem<'a> {
     pub loads: &'a Loads,
     pub constraints: &'a Constraints,
     pub supports: &'a [Plane],
-    /// The largest pressure (Pa), which sizes the contact barrier.
-    pub p_max: f64,
+    /// The fine mesh's contact barrier, which every level keeps: each coarse mold then rests
+    /// at the fine one's contact distance, which its start inherits (sized for the coarse mesh,
+    /// the barrier's wider zone left the bag on a floor of the tests 48 fine iterations from
+    /// the start, against 14).
+    pub barrier: Option<Barrier>,
     pub opts: &'a NewtonOptions,
 }
 
@@ -148,7 +153,7 @@ pub(crate) fn coarse_start(pb: &Problem<'_>, ratio: usize) -> (Option<Vec<Vec3>>
 
 /// The body of [`coarse_start`]: the positions, or why there are none.
 fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<Vec<Vec3>, String> {
-    let Problem { mesh, material, loads, constraints, supports, p_max, opts } = *pb;
+    let Problem { mesh, material, loads, constraints, supports, barrier, opts } = *pb;
     let target_faces = mesh.n_faces() / ratio.max(2);
     if target_faces < COARSE_MIN_FACES {
         return Err(format!("a coarse mesh of {target_faces} faces is too small (at least {COARSE_MIN_FACES})"));
@@ -156,11 +161,15 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let clock = Instant::now();
     let locked: Vec<bool> = mesh.vertices().map(|v| constraints.n_fixed(v) > 0).collect();
     // The simplifier may return an invalid mesh (a non-manifold edge) or change the topology
-    // at one face count and not at another: a few targets are tried, each a quarter larger.
+    // at one face count and not at another: the target is tried, then 1.25 and 1.5 times it
+    // (while that stays under half the faces).
     let mut tries = Vec::new();
     let mut coarse = None;
     for k in 0..SIMPLIFY_TRIES {
         let target = target_faces * (4 + k) / 4;
+        if k > 0 && 2 * target > mesh.n_faces() {
+            break;
+        }
         match simplify(mesh, target, &locked) {
             Err(e) => tries.push(format!("simplification to {target} faces failed: {e}")),
             Ok(c) if 2 * c.mesh.n_faces() > mesh.n_faces() => {
@@ -186,25 +195,34 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     stats.faces = coarse.mesh.n_faces();
     stats.vertices = coarse.mesh.n_vertices();
     let cons = constraints.restrict(&coarse.parent);
-    // The fine mesh's contact barrier: the coarse mold then rests at the fine one's contact
-    // distance, which its start inherits (sized for the coarse mesh, the barrier's wider zone
-    // left the bag on a floor of the tests 48 fine iterations from the start, against 14).
-    let barrier = (!supports.is_empty()).then(|| crate::scenario::contact_barrier(mesh, p_max, material));
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
-    // The next level of the cascade, if it is still large enough; whatever it gives, the coarse
-    // solve can always start from its target instead.
-    let mut start = None;
+    let target_start = || coarse.mesh.positions().as_slice().to_vec();
+    // The next level of the cascade, if it is still large enough; if it gives no start, or the
+    // solve from its start fails, this level is solved from its target.
+    let mut res = None;
     if coarse.mesh.n_faces() / ratio.max(2) >= CASCADE_MIN_FACES {
         let pb = Problem { mesh: &coarse.mesh, constraints: &cons, opts: &opts, ..*pb };
         let (x, mut st) = coarse_start(&pb, ratio);
-        st.used = x.is_some();
+        if let Some(x) = x {
+            match solve(&mut sys, x, &opts, &mut |_| {}) {
+                Ok(r) if r.termination == Termination::Converged => {
+                    st.used = true;
+                    res = Some(r);
+                }
+                Ok(r) => {
+                    st.note = Some(format!("the solve from it failed ({:?}); solved from the target", r.termination))
+                }
+                Err(e) => st.note = Some(format!("the solve from it failed ({e}); solved from the target")),
+            }
+        }
         tracing::debug!(faces = st.faces, iterations = st.newton_iterations, used = st.used, "coarser level");
-        start = x;
         stats.coarser = Some(Box::new(st));
     }
-    let start = start.unwrap_or_else(|| coarse.mesh.positions().as_slice().to_vec());
-    let res = solve(&mut sys, start, &opts, &mut |_| {}).map_err(|e| format!("coarse solve failed: {e}"))?;
+    let res = match res {
+        Some(r) => r,
+        None => solve(&mut sys, target_start(), &opts, &mut |_| {}).map_err(|e| format!("coarse solve failed: {e}"))?,
+    };
     stats.newton_iterations = res.stats.iterations;
     stats.converged = res.termination == Termination::Converged;
     if !stats.converged {

@@ -206,14 +206,22 @@ mod tests {
 
     #[test]
     fn corner_terms_are_the_blocks_of_the_full_evaluation() {
-        let mat = crate::material::WrinklingStVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let wrinkling = crate::material::WrinklingStVenantKirchhoff::from_young_poisson(1000.0, 0.3);
+        let plain = StVenantKirchhoff::from_young_poisson(1000.0, 0.3);
         let p = tri();
         let e = Element::from_corners(&p);
-        // Taut, and compressed along one side (wrinkled: S⁺ in the geometric term).
-        for x in [p.map(|v| v * 1.05), [p[0], p[1] * 0.8, p[2] * 1.1]] {
-            let (w, g, h) = e.evaluate(&mat, FaceId(0), &x, true);
+        // Taut, and compressed along one side: wrinkled, and plain StVK in compression (whose
+        // stress is indefinite, so the geometric term's S⁺ differs from S).
+        let compressed = [p[0], p[1] * 0.8, p[2] * 1.1];
+        let stress = plain.response(FaceId(0), &e.kinematics(&compressed).strain).stress;
+        let s2 = nalgebra::Matrix2::new(stress[0], stress[2], stress[2], stress[1]).symmetric_eigenvalues();
+        assert!(s2.min() < 0.0 && s2.max() > 0.0, "the plain case is indefinite: {s2:?}");
+        let cases: [(&dyn Material, [Vec3; 3]); 3] =
+            [(&wrinkling, p.map(|v| v * 1.05)), (&wrinkling, compressed), (&plain, compressed)];
+        for (mat, x) in cases {
+            let (w, g, h) = e.evaluate(mat, FaceId(0), &x, true);
             for a in 0..3 {
-                let (wa, ga, ha) = e.corner(&mat, FaceId(0), &x, a);
+                let (wa, ga, ha) = e.corner(mat, FaceId(0), &x, a);
                 assert!((wa - w).abs() <= 1e-15 * w.abs().max(1e-300));
                 assert!((ga - g.fixed_rows::<3>(3 * a)).norm() <= 1e-12 * g.norm());
                 assert!((ha - h.fixed_view::<3, 3>(3 * a, 3 * a)).norm() <= 1e-12 * h.norm());

@@ -113,7 +113,9 @@ impl System<'_> {
     /// The new position of vertex `v` after one Newton step on its local energy with the other
     /// vertices at `x` (None if no step lowers it).
     fn vertex_step(&self, x: &[Vec3], v: usize, s: f64) -> Option<Vec3> {
-        let (e0, g, h) = self.vertex_terms(x, v, &x[v], s, true);
+        let (_, g, h) = self.vertex_terms(x, v, &x[v], s, true);
+        // The energy the trial points are compared with, by the same formula as theirs.
+        let e0 = self.vertex_terms(x, v, &x[v], s, false).0;
         // In the vertex's frame: constrained axes first, held (zero gradient, decoupled).
         let (frame, k) = self.frame(v);
         let r = frame.unwrap_or_else(Matrix3::identity);
@@ -176,7 +178,7 @@ mod tests {
     use clothcast_mesh::VertexId;
 
     fn sphere_problem() -> (clothcast_mesh::Mesh, WrinklingStVenantKirchhoff, Loads, Constraints) {
-        let mesh = clothcast_mesh::shapes::icosphere(3, 0.2);
+        let mesh = clothcast_mesh::shapes::icosphere(4, 0.2);
         let mat = WrinklingStVenantKirchhoff::from_young_poisson(5e4, 0.3);
         let loads = Loads {
             hydrostatic: Some(Hydrostatic { rho_g: 1460.0 * 9.81, up: Vec3::z(), fill_height: 0.2 }),
@@ -185,13 +187,19 @@ mod tests {
         };
         let mut c = Constraints::free(mesh.n_vertices());
         for v in mesh.vertices() {
-            if mesh.position(v).z > 0.17 {
+            if mesh.position(v).z > 0.18 {
                 c.fix_vertex(v);
             }
         }
-        c.fix_direction(VertexId(5), Vec3::new(1.0, 0.0, 0.0));
+        // Two vertices that slide: one on a plane, one along a line.
+        c.fix_direction(VertexId(SLIDING[0] as u32), Vec3::new(1.0, 0.3, 0.0));
+        c.fix_direction(VertexId(SLIDING[1] as u32), Vec3::new(0.0, 1.0, 1.0));
+        c.fix_direction(VertexId(SLIDING[1] as u32), Vec3::new(1.0, 0.0, 0.0));
         (mesh, mat, loads, c)
     }
+
+    /// Vertices of the test sphere below its clamped cap, given sliding constraints.
+    const SLIDING: [usize; 2] = [40, 41];
 
     /// Vertices pushed off their places go back towards them, the energy falls, constrained
     /// axes stay put, and the result does not depend on the number of threads.
@@ -200,22 +208,31 @@ mod tests {
         let (mesh, mat, loads, c) = sphere_problem();
         let sys = System::new(&mesh, &mat, loads, &c, vec![], None);
         let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
-        let mut x = target.clone();
-        let seeds: Vec<usize> = (0..mesh.n_vertices()).step_by(7).collect();
-        for &v in &seeds {
-            if c.n_fixed(VertexId(v as u32)) == 0 {
-                x[v] += Vec3::new(0.004, -0.003, 0.002) * (1.0 + (v % 3) as f64);
-            }
+        for v in SLIDING {
+            assert_eq!(c.n_fixed(VertexId(v as u32)), v - 39, "vertex {v} is below the clamped cap");
         }
-        x[5] += Vec3::new(0.003, 0.002, 0.0);
+        // Every second vertex, pushed off its place (the sliding ones within their free axes):
+        // colour classes of well over MIN_PARALLEL vertices, so two threads share them.
+        let seeds: Vec<usize> = (0..mesh.n_vertices()).step_by(2).chain(SLIDING).collect();
+        let free_part = |v: usize, d: Vec3| {
+            let (frame, k) = c.frame(VertexId(v as u32));
+            let r = frame.unwrap_or_else(Matrix3::identity);
+            (k..3).map(|i| r.column(i) * r.column(i).dot(&d)).sum::<Vec3>()
+        };
+        let mut x = target.clone();
+        for &v in &seeds {
+            x[v] += free_part(v, Vec3::new(0.004, -0.003, 0.002) * (1.0 + (v % 3) as f64));
+        }
         let before = x.clone();
         let e0 = sys.energy(&x, 1.0);
+        let mut colour = vec![u32::MAX; x.len()];
+        let free: Vec<usize> = seeds.iter().copied().filter(|&v| c.n_fixed(VertexId(v as u32)) < 3).collect();
+        let largest = sys.colour_classes(&free, &mut colour).iter().map(Vec::len).max().unwrap_or(0);
+        assert!(largest > 2 * MIN_PARALLEL, "colour classes of at most {largest} vertices run on one thread");
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             let mut y = before.clone();
-            let mut seeds5 = seeds.clone();
-            seeds5.push(5);
-            let r = pool.install(|| sys.relax(&mut y, 1.0, &seeds5, 20, 1e-9));
+            let r = pool.install(|| sys.relax(&mut y, 1.0, &seeds, 20, 1e-9));
             (y, r)
         };
         let (x1, r1) = run(1);
@@ -225,17 +242,64 @@ mod tests {
         let e1 = sys.energy(&x1, 1.0);
         assert!(e1 < e0 - 1.0, "energy {e0} → {e1}");
         assert!(r1.sweeps > 1 && r1.moves > 0);
-        // Clamped vertices and vertex 5's fixed axis do not move; vertices outside the set neither.
+        // Clamped vertices and vertices outside the set do not move; sliding ones only along
+        // their free axes (and they do move).
         for v in 0..x1.len() {
-            let fixed = c.n_fixed(VertexId(v as u32));
-            if fixed == 3 || !(seeds.contains(&v) || v == 5) {
+            if c.n_fixed(VertexId(v as u32)) == 3 || !seeds.contains(&v) {
                 assert_eq!(x1[v], before[v], "vertex {v} moved");
             }
         }
-        assert!((x1[5] - before[5]).x.abs() < 1e-15, "vertex 5 moved along its fixed axis");
+        for v in SLIDING {
+            let d = x1[v] - before[v];
+            assert!(d.norm() > 1e-5, "sliding vertex {v} did not move");
+            assert!((d - free_part(v, d)).norm() < 1e-12 * d.norm().max(1e-3), "vertex {v} left its free axes");
+        }
         // The displaced vertices went most of the way back.
         let off = |y: &[Vec3]| seeds.iter().map(|&v| (y[v] - target[v]).norm()).sum::<f64>();
         assert!(off(&x1) < 0.2 * off(&before), "{} vs {}", off(&x1), off(&before));
+    }
+
+    /// A vertex's local energy, gradient and Hessian block (faces, liquid, head pressure,
+    /// weight, a support's barrier) agree with finite differences, and with the total energy's
+    /// change when the vertex alone moves.
+    #[test]
+    fn vertex_terms_match_finite_differences() {
+        use crate::loads::{Barrier, Plane};
+        let (mesh, mat, loads, c) = sphere_problem();
+        let support = Plane::new(Vec3::new(0.0, 0.0, -0.2035), Vec3::new(0.05, 0.0, 1.0));
+        let barrier = Barrier { dhat: 0.01, kappa: 1e4 };
+        let sys = System::new(&mesh, &mat, loads, &c, vec![support], Some(barrier));
+        // A strained state, the lowest vertex within the barrier's reach.
+        let x: Vec<Vec3> = mesh.positions().iter().map(|p| Vec3::new(p.x * 1.04, p.y * 0.97, p.z * 1.01)).collect();
+        let v = (0..x.len()).min_by(|&a, &b| x[a].z.total_cmp(&x[b].z)).expect("vertices");
+        assert!(support.distance(&x[v]) < 0.01, "vertex {v} is within the barrier's reach");
+        let s = 0.9;
+        let (e, g, h) = sys.vertex_terms(&x, v, &x[v], s, true);
+        assert!((e - sys.vertex_terms(&x, v, &x[v], s, false).0).abs() < 1e-12 * e.abs().max(1.0));
+        let eps = 1e-6;
+        for k in 0..3 {
+            let (mut yp, mut ym) = (x[v], x[v]);
+            yp[k] += eps;
+            ym[k] -= eps;
+            let fd =
+                (sys.vertex_terms(&x, v, &yp, s, false).0 - sys.vertex_terms(&x, v, &ym, s, false).0) / (2.0 * eps);
+            assert!((fd - g[k]).abs() < 1e-5 * (1.0 + g[k].abs()), "g{k}: {fd} vs {}", g[k]);
+            let dg = (sys.vertex_terms(&x, v, &yp, s, true).1 - sys.vertex_terms(&x, v, &ym, s, true).1) / (2.0 * eps);
+            for i in 0..3 {
+                assert!(
+                    (dg[i] - h[(i, k)]).abs() < 1e-4 * (1.0 + h[(i, k)].abs()),
+                    "h{i}{k}: {} vs {}",
+                    dg[i],
+                    h[(i, k)]
+                );
+            }
+            // The change of the total energy is the change of the vertex's own.
+            let mut xp = x.clone();
+            xp[v] = yp;
+            let d_total = sys.energy(&xp, s) - sys.energy(&x, s);
+            let d_local = sys.vertex_terms(&x, v, &yp, s, false).0 - e;
+            assert!((d_total - d_local).abs() < 1e-9 * (1.0 + d_local.abs()), "{d_total} vs {d_local}");
+        }
     }
 
     /// At an equilibrium nothing moves (beyond round-off), and one sweep settles it.

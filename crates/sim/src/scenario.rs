@@ -365,7 +365,7 @@ pub fn simulate(
                 loads: &loads,
                 constraints: &constraints,
                 supports: &sc.supports,
-                p_max,
+                barrier,
                 opts: &sc.newton,
             };
             coarse_start(&pb, co.ratio)

@@ -59,6 +59,9 @@ fn taut_molds_reach_the_same_equilibrium() {
     let sc =
         Scenario { infill_density: 0.0, head_pressure: 2000.0, suspension: Suspension::None, ..Default::default() };
     let (r, p) = (solve(&mesh, &sc, 10), solve(&mesh, &sc, 0));
+    // The first steps from the stress-free sphere overshoot (it has no stiffness out of its
+    // surface yet): relaxations happen even here.
+    assert!(r.stats.solver.relaxations > 0, "{:?}", r.stats.solver);
     let gap = r.positions.iter().zip(p.positions.iter()).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
     assert!(gap <= 1e-9 * p.stats.max_displacement_m, "equilibria {gap} m apart");
 }
