@@ -468,7 +468,8 @@ pub fn solve(
             let sufficient = |e: f64, alpha: f64| {
                 e <= ev.energy + 1e-4 * alpha * slope || (-alpha * slope <= noise && e <= ev.energy + noise)
             };
-            let mut have_base = false;
+            // The iterate's per-face energies, taken at the first relaxation of this search.
+            base_faces.clear();
             let relaxing = opts.relax_sweeps > 0;
             let mut trials = 0;
             while alpha > 1e-10 {
@@ -479,9 +480,8 @@ pub fn solve(
                 // Before shortening the step: relax the vertices it sent too far (none when no
                 // face's energy rose: the step then fell short by the weight or contacts).
                 let seeds = if !sufficient(e, alpha) && relax_this {
-                    if !have_base {
+                    if base_faces.is_empty() {
                         sys.evaluated_face_energies(&mut base_faces);
-                        have_base = true;
                     }
                     sys.overshooting_vertices(&base_faces, &trial_faces, opts.relax_fraction)
                 } else {

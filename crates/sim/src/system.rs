@@ -371,32 +371,24 @@ impl<'a> System<'a> {
         self.energy_faces(x, s, None)
     }
 
-    /// Potential energy (as [`System::energy`], to the bit), and with `faces` every face's
-    /// share of it (elastic energy minus the work of its pressures), by face id.
+    /// Potential energy (what [`System::energy`] returns), and with `faces` every face's share
+    /// of it (elastic energy minus the work of its pressures), by face id.
     pub fn energy_faces(&self, x: &[Vec3], s: f64, faces: Option<&mut Vec<f64>>) -> f64 {
-        let share = |fi: usize| {
-            let f = FaceId::new(fi);
-            self.face_energy(self.element(f), f, &self.face_corners(x, f), s)
-        };
-        let chunks: Vec<f64> = match faces {
-            Some(out) => {
-                out.resize(self.mesh.n_faces(), 0.0);
-                out.par_chunks_mut(CHUNK)
-                    .enumerate()
-                    .map(|(c, o)| {
-                        for (i, v) in o.iter_mut().enumerate() {
-                            *v = share(c * CHUNK + i);
-                        }
-                        o.iter().sum::<f64>()
-                    })
-                    .collect()
-            }
-            None => (0..self.mesh.n_faces())
-                .collect::<Vec<_>>()
-                .par_chunks(CHUNK)
-                .map(|c| c.iter().map(|&fi| share(fi)).sum::<f64>())
-                .collect(),
-        };
+        let mut local = Vec::new();
+        let out = faces.unwrap_or(&mut local);
+        out.resize(self.mesh.n_faces(), 0.0);
+        // Each chunk of faces summed in face order, the chunks' sums in chunk order.
+        let chunks: Vec<f64> = out
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, o)| {
+                for (i, v) in o.iter_mut().enumerate() {
+                    let f = FaceId::new(c * CHUNK + i);
+                    *v = self.face_energy(self.element(f), f, &self.face_corners(x, f), s);
+                }
+                o.iter().sum::<f64>()
+            })
+            .collect();
         let mut e: f64 = chunks.iter().sum();
         e += s * self.weight_energy(x);
         e + self.contact_energy(x)
