@@ -39,43 +39,86 @@ pub fn nested_dissection_with_top(
     leaf: usize,
 ) -> (Vec<usize>, Option<[usize; 2]>) {
     let n = positions.len();
-    let mut top = None;
     let graph = Graph::from_edges(n, edges);
-    let mut order = Vec::with_capacity(n);
-    // Scratch: which part a node is in during a split (by a stamp, to avoid clearing).
-    let mut mark = vec![usize::MAX; n];
-    let mut rank = vec![0usize; n];
-    let mut stamp = 0usize;
-    let mut stack: Vec<Task> = vec![Task::Split((0..n).collect())];
-    while let Some(task) = stack.pop() {
-        match task {
-            Task::Emit(nodes) => order.extend(nodes),
-            Task::Split(nodes) => {
-                if nodes.len() <= leaf.max(1) {
-                    order.extend(amd_order(&graph, &nodes, &mut mark, &mut rank, &mut stamp));
-                    continue;
-                }
-                let Some((a, b, sep)) = bisect(&graph, positions, &nodes, &mut mark, &mut rank, &mut stamp) else {
-                    order.extend(amd_order(&graph, &nodes, &mut mark, &mut rank, &mut stamp));
-                    continue;
-                };
-                if top.is_none() {
-                    top = Some([a.len(), b.len()]);
-                }
-                // Order: A, then B, then the separator (pushed in reverse).
-                stack.push(Task::Emit(sep));
-                stack.push(Task::Split(b));
-                stack.push(Task::Split(a));
-            }
-        }
+    let mut scratch = Scratch::new(n);
+    let nodes: Vec<usize> = (0..n).collect();
+    let leaf = leaf.max(1);
+    if n <= leaf {
+        return (scratch.amd_order(&graph, &nodes), None);
     }
+    let Some((a, b, sep)) = scratch.bisect(&graph, positions, &nodes) else {
+        return (scratch.amd_order(&graph, &nodes), None);
+    };
+    let top = Some([a.len(), b.len()]);
+    let order = dissect_halves(&graph, positions, leaf, &mut scratch, 0, a, b, sep);
     debug_assert_eq!(order.len(), n);
     (order, top)
 }
 
-enum Task {
-    Split(Vec<usize>),
-    Emit(Vec<usize>),
+/// Levels of the dissection whose two halves are ordered in parallel (each forked half gets
+/// its own scratch; the order is the same for any thread count: A's, then B's, then the
+/// separator). Kitten's 53k vertices: 0.20 → 0.11 s on two threads.
+const PARALLEL_LEVELS: usize = 3;
+
+/// Parts smaller than this are not forked (the fork's scratch would cost more than it saves).
+const PARALLEL_MIN_NODES: usize = 4096;
+
+/// The order of `nodes`: split, each half ordered recursively, the separator last.
+fn dissect(g: &Graph, pos: &[Vec3], nodes: Vec<usize>, leaf: usize, sc: &mut Scratch, level: usize) -> Vec<usize> {
+    if nodes.len() <= leaf {
+        return sc.amd_order(g, &nodes);
+    }
+    match sc.bisect(g, pos, &nodes) {
+        Some((a, b, sep)) => dissect_halves(g, pos, leaf, sc, level + 1, a, b, sep),
+        None => sc.amd_order(g, &nodes),
+    }
+}
+
+/// A's order, then B's, then the separator; the halves in parallel near the top.
+#[allow(clippy::too_many_arguments)]
+fn dissect_halves(
+    g: &Graph,
+    pos: &[Vec3],
+    leaf: usize,
+    sc: &mut Scratch,
+    level: usize,
+    a: Vec<usize>,
+    b: Vec<usize>,
+    sep: Vec<usize>,
+) -> Vec<usize> {
+    let (mut order, ob) = if level < PARALLEL_LEVELS && a.len().min(b.len()) >= PARALLEL_MIN_NODES {
+        rayon::join(
+            || dissect(g, pos, a, leaf, sc, level),
+            || dissect(g, pos, b, leaf, &mut Scratch::new(pos.len()), level),
+        )
+    } else {
+        let oa = dissect(g, pos, a, leaf, sc, level);
+        (oa, dissect(g, pos, b, leaf, sc, level))
+    };
+    order.extend(ob);
+    order.extend(sep);
+    order
+}
+
+/// Per-node scratch of a dissection: which part a node is in (by a stamp, to avoid clearing)
+/// and its rank or side. Only nodes of the part at hand are read, so a forked half can work
+/// on its own copy.
+struct Scratch {
+    mark: Vec<usize>,
+    rank: Vec<usize>,
+    stamp: usize,
+}
+
+impl Scratch {
+    fn new(n: usize) -> Self {
+        Self { mark: vec![usize::MAX; n], rank: vec![0; n], stamp: 0 }
+    }
+    fn amd_order(&mut self, g: &Graph, nodes: &[usize]) -> Vec<usize> {
+        amd_order(g, nodes, &mut self.mark, &mut self.rank, &mut self.stamp)
+    }
+    fn bisect(&mut self, g: &Graph, pos: &[Vec3], nodes: &[usize]) -> Option<(Vec<usize>, Vec<usize>, Vec<usize>)> {
+        bisect(g, pos, nodes, &mut self.mark, &mut self.rank, &mut self.stamp)
+    }
 }
 
 struct Graph {
@@ -407,6 +450,31 @@ mod tests {
         assert!(sizes.iter().all(|&k| 4 * k >= nx * ny - nx), "{sizes:?}");
         // Deterministic.
         assert_eq!(order, nested_dissection(&positions, &edges, 50));
+    }
+
+    /// The halves forked to two threads near the top give the order of one thread (each
+    /// fork has its own scratch; the order is A's, B's, then the separator either way).
+    #[test]
+    fn parallel_dissection_is_the_order_of_one_thread() {
+        // Large enough for the top halves to be forked (PARALLEL_MIN_NODES each).
+        let (nx, ny) = (130, 100);
+        let (positions, edges) = grid_graph(nx, ny, 0.9);
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| nested_dissection_with_top(&positions, &edges, 64))
+        };
+        let (one, top) = run(1);
+        let top = top.expect("split");
+        assert!(top.iter().all(|&k| k >= PARALLEL_MIN_NODES), "{top:?}");
+        for threads in [2, 3] {
+            assert_eq!(run(threads), (one.clone(), Some(top)));
+        }
+        let mut seen = one;
+        seen.sort_unstable();
+        assert_eq!(seen, (0..nx * ny).collect::<Vec<_>>());
     }
 
     #[test]

@@ -107,7 +107,9 @@ pub enum FactorPrecision {
 pub const SINGLE_MIN_FACTOR_LEN: usize = 2_000_000;
 
 /// Factor size from which the factorization is split over two threads (measured: spot, 3.8M
-/// entries, 1.10 → 0.98 s; kitten, 21.7M, 33.6 → 25.6 s).
+/// entries, 1.10 → 0.98 s; kitten, 21.7M, 33.6 → 25.6 s), judged before the dof-level
+/// analysis as nine times the vertex graph's factor entries (three dofs per vertex; the
+/// supernodal storage measured 10.4–10.8 times on spot, bunny_hr and kitten).
 pub const SPLIT_MIN_FACTOR_LEN: usize = 2_000_000;
 
 /// Relative residual to which a step is solved with a single-precision factor. Looser steps
@@ -236,37 +238,32 @@ pub fn solve(
         });
     }
     let t = Instant::now();
-    // Two fill-reducing orderings, AMD and nested dissection; the one with the smaller factor
-    // is kept (nested dissection wins on large meshes: kitten's factorization 0.30 → 0.21 s).
-    let mut chol = CholeskySolver::with_ordering(sys.pattern(), Some(&sys.dof_ordering()?))?;
-    if let Some((nd, parts)) = sys.dof_ordering_nd() {
-        match CholeskySolver::with_ordering(sys.pattern(), Some(&nd)) {
-            Ok(alt) => {
-                tracing::debug!(amd = chol.factor_len(), nd = alt.factor_len(), "factor sizes");
-                if alt.factor_len() < chol.factor_len() {
-                    chol = alt;
-                    // Two threads for the factorization and the solves when the factor is
-                    // large enough to pay for the separator's dense work.
-                    // (Not conditioned on the thread count: with one thread the halves run
-                    // one after the other and the results are the same.)
-                    if let Some(parts) = parts
-                        && opts.split_factorization
-                        && chol.factor_len() >= SPLIT_MIN_FACTOR_LEN
-                    {
-                        match CholeskySolver::with_split_ordering(sys.pattern(), &nd, parts) {
-                            Ok(split) => {
-                                tracing::debug!(parts = ?parts, len = split.factor_len(), "split factorization");
-                                chol = split;
-                            }
-                            Err(e) => tracing::debug!(error = %e, "split analysis failed; one thread"),
-                        }
-                    }
-                }
+    // The fill-reducing ordering: AMD or nested dissection, whichever gives the smaller factor
+    // (nested dissection wins on large meshes: kitten's factorization 0.30 → 0.21 s).
+    let ordering = sys.dof_ordering()?;
+    tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, "vertex-graph factor sizes");
+    let mut split = None;
+    // Two threads for the factorization and the solves when the factor is large enough to
+    // pay for the separator's dense work (judged by the vertex graph's factor: with three
+    // dofs per vertex the dofs' factor has about nine times its entries). Not conditioned on
+    // the thread count: with one thread the halves run one after the other, same results.
+    if let Some(Some(parts)) = ordering.nested
+        && opts.split_factorization
+        && 9 * ordering.nd_fill.unwrap_or(0) >= SPLIT_MIN_FACTOR_LEN
+    {
+        match CholeskySolver::with_split_ordering(sys.pattern(), &ordering.dofs, parts) {
+            Ok(s) => {
+                tracing::debug!(parts = ?parts, len = s.factor_len(), "split factorization");
+                split = Some(s);
             }
-            // The second ordering is optional: AMD's analysis stands.
-            Err(e) => tracing::debug!(error = %e, "nested-dissection analysis failed; AMD kept"),
+            Err(e) => tracing::debug!(error = %e, "split analysis failed; one thread"),
         }
     }
+    let chol = match split {
+        Some(s) => s,
+        None => CholeskySolver::with_ordering(sys.pattern(), Some(&ordering.dofs))?,
+    };
+    tracing::debug!(len = chol.factor_len(), "factor size");
     stats.symbolic_seconds = t.elapsed().as_secs_f64();
 
     // Damping scale D: the Hessian's diagonal at the start, floored at its median so that

@@ -45,6 +45,20 @@ const ND_MIN_VERTICES: usize = 5000;
 /// Nested-dissection parts of at most this many vertices are ordered by AMD.
 const ND_LEAF: usize = 64;
 
+/// The dof ordering [`System::dof_ordering`] chose.
+#[derive(Clone, Debug)]
+pub struct DofOrdering {
+    /// The free dofs in elimination order.
+    pub dofs: Vec<usize>,
+    /// Some when nested dissection was chosen: the dof counts of the two halves of its top
+    /// split (eliminated first, before their separator), if it split.
+    pub nested: Option<Option<[usize; 2]>>,
+    /// Entries of the vertex graph's factor in AMD's order.
+    pub amd_fill: usize,
+    /// The same in nested dissection's order, when it was computed.
+    pub nd_fill: Option<usize>,
+}
+
 /// A face as the assembly's per-face loop reads it, in storage order.
 #[derive(Clone, Copy)]
 struct StoredFace {
@@ -287,28 +301,45 @@ impl<'a> System<'a> {
     pub fn pattern(&self) -> &SymmetricPattern {
         &self.pattern
     }
-    /// Fill-reducing ordering of the free dofs: AMD on the vertex graph, each vertex expanded
-    /// to its free dofs (cheaper to compute than AMD on the dof pattern, and as good).
-    pub fn dof_ordering(&self) -> Result<Vec<usize>, clothcast_mesh::sparse::SolveError> {
-        let order = clothcast_mesh::sparse::CholeskySolver::amd_order(self.mesh.n_vertices(), self.node_edges())?;
-        Ok(self.dofs_in_node_order(&order))
-    }
-
-    /// A nested-dissection ordering of the dofs ([`clothcast_mesh::ordering`]), by the rest
-    /// positions, with the dof counts of the two halves of its top split (eliminated first,
-    /// before their separator); None for systems too small for it to pay.
-    pub fn dof_ordering_nd(&self) -> Option<(Vec<usize>, Option<[usize; 2]>)> {
-        if self.mesh.n_vertices() < ND_MIN_VERTICES {
-            return None;
-        }
+    /// The fill-reducing ordering of the free dofs the Newton solver factors with, chosen on
+    /// the vertex graph (each vertex then expanded to its free dofs: cheaper than ordering
+    /// the dof pattern, and as good): AMD, or, on systems of at least [`ND_MIN_VERTICES`]
+    /// vertices, nested dissection by the rest positions ([`clothcast_mesh::ordering`]) when
+    /// its vertex-graph factor has fewer entries. The two orderings are computed in parallel,
+    /// and compared by a simplicial analysis of the vertex graph instead of the dof-level
+    /// analysis of both (kitten's symbolic phase, with the split analysis: 0.62 → 0.33 s).
+    pub fn dof_ordering(&self) -> Result<DofOrdering, clothcast_mesh::sparse::SolveError> {
+        use clothcast_mesh::ordering::nested_dissection_with_top;
+        use clothcast_mesh::sparse::CholeskySolver;
+        let n = self.mesh.n_vertices();
         let edges: Vec<(usize, usize)> = self.node_edges().collect();
-        let (order, top) =
-            clothcast_mesh::ordering::nested_dissection_with_top(self.mesh.positions().as_slice(), &edges, ND_LEAF);
-        let free = |nodes: &[usize]| -> usize {
-            nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
+        let amd = || -> Result<_, clothcast_mesh::sparse::SolveError> {
+            let order = CholeskySolver::amd_order(n, edges.iter().copied())?;
+            let fill = CholeskySolver::node_fill(n, edges.iter().copied(), &order)?;
+            Ok((order, fill))
         };
-        let parts = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
-        Some((self.dofs_in_node_order(&order), parts))
+        // Nested dissection, with the vertex counts of its top split's halves, and its fill.
+        let nd = || {
+            (n >= ND_MIN_VERTICES).then(|| {
+                let (order, top) = nested_dissection_with_top(self.mesh.positions().as_slice(), &edges, ND_LEAF);
+                // Optional: if its analysis fails, AMD stands.
+                CholeskySolver::node_fill(n, edges.iter().copied(), &order).ok().map(|fill| (order, top, fill))
+            })
+        };
+        let (amd, nd) = rayon::join(amd, nd);
+        let (amd_order, amd_fill) = amd?;
+        let nd = nd.flatten();
+        let nd_fill = nd.as_ref().map(|d| d.2);
+        Ok(match nd {
+            Some((order, top, fill)) if fill < amd_fill => {
+                let free = |nodes: &[usize]| -> usize {
+                    nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
+                };
+                let parts = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
+                DofOrdering { dofs: self.dofs_in_node_order(&order), nested: Some(parts), amd_fill, nd_fill }
+            }
+            _ => DofOrdering { dofs: self.dofs_in_node_order(&amd_order), nested: None, amd_fill, nd_fill },
+        })
     }
 
     /// The mesh edges as vertex index pairs (the node graph of the dofs).
