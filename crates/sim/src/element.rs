@@ -121,10 +121,13 @@ impl Element {
 
     /// Energy, and the gradient and Hessian block of corner `a` alone (the corner's 3×3
     /// diagonal block of [`Element::evaluate`]'s projected Hessian): what a vertex-by-vertex
-    /// relaxation needs, without the other eight blocks.
+    /// relaxation needs, without the other eight blocks. The energy is [`Element::energy`]'s,
+    /// to the bit (the material's energy formula, which may round differently from its
+    /// response's), so that a relaxation compares its trial points with the same formula.
     pub fn corner(&self, mat: &dyn Material, face: FaceId, x: &[Vec3; 3], a: usize) -> (f64, Vec3, Matrix3<f64>) {
         let k = self.kinematics(x);
-        let MaterialResponse { energy, stress, tangent } = mat.response(face, &k.strain);
+        let MaterialResponse { stress, tangent, .. } = mat.response(face, &k.strain);
+        let energy = mat.energy(face, &k.strain);
         let b = self.b_matrix(&k, a);
         let g = b.transpose() * stress * self.area;
         let s = positive_part(&Matrix2::new(stress[0], stress[2], stress[2], stress[1]));
@@ -167,13 +170,17 @@ pub fn sym2_angle(a: f64, b: f64, c: f64) -> f64 {
 /// Positive semi-definite part of a symmetric 2×2 matrix (negative eigenvalues set to 0).
 #[inline]
 pub fn positive_part(s: &Matrix2<f64>) -> Matrix2<f64> {
-    let (l1, l2, th) = sym2_eigen(s[(0, 0)], s[(0, 1)], s[(1, 1)]);
+    // The eigenvector (an arctangent) only when one eigenvalue is dropped: the tension-field
+    // model's stress is always positive semi-definite.
+    let (a, b, c) = (s[(0, 0)], s[(0, 1)], s[(1, 1)]);
+    let (l1, l2) = sym2_eigenvalues(a, b, c);
     if l2 >= 0.0 {
         return *s;
     }
     if l1 <= 0.0 {
         return Matrix2::zeros();
     }
+    let th = sym2_angle(a, b, c);
     let v = Vector2::new(th.cos(), th.sin());
     v * v.transpose() * l1
 }
@@ -223,6 +230,7 @@ mod tests {
             for a in 0..3 {
                 let (wa, ga, ha) = e.corner(mat, FaceId(0), &x, a);
                 assert!((wa - w).abs() <= 1e-15 * w.abs().max(1e-300));
+                assert_eq!(wa, e.energy(mat, FaceId(0), &x), "the energy formula's value, to the bit");
                 assert!((ga - g.fixed_rows::<3>(3 * a)).norm() <= 1e-12 * g.norm());
                 assert!((ha - h.fixed_view::<3, 3>(3 * a, 3 * a)).norm() <= 1e-12 * h.norm());
             }

@@ -491,6 +491,9 @@ impl<'a> System<'a> {
     /// The part of Π that depends on vertex `v` (its faces, its weight, its contacts) with `v`
     /// at `y` and every other vertex at `x`; with `derivatives`, also its gradient and its
     /// Hessian block with respect to `y` (elastic part projected as in [`System::evaluate`]).
+    /// The energy is the same to the bit either way (each face's share by
+    /// [`System::face_energy`]'s formula), so one call with derivatives gives a relaxation
+    /// both its step and the energy its trial points are compared with.
     pub(crate) fn vertex_terms(
         &self,
         x: &[Vec3],
@@ -508,12 +511,13 @@ impl<'a> System<'a> {
                 e += self.face_energy(&sf.element, sf.face, &p, s);
                 continue;
             }
-            let (fe, fg, fh) = sf.element.corner(self.material, sf.face, &p, a);
-            e += fe;
+            // The face's share as `face_energy` sums it: elastic, minus the liquid's work
+            // (`work_corner`'s value is `work`'s), minus the head pressure's.
+            let (mut fe, fg, fh) = sf.element.corner(self.material, sf.face, &p, a);
             g += fg;
             h += fh;
             if let Some((w, wg, wh)) = self.loads.hydrostatic.as_ref().and_then(|hy| hy.work_corner(&p, a)) {
-                e -= s * w;
+                fe -= s * w;
                 g -= wg * s;
                 h -= wh * s;
             }
@@ -522,9 +526,10 @@ impl<'a> System<'a> {
                 // The enclosed volume y0·(y1 × y2)/6 is linear in each corner: its corner block
                 // of the Hessian is zero.
                 let y = p.map(|q| q - self.volume_center);
-                e -= s * ph * y[0].dot(&y[1].cross(&y[2])) / 6.0;
+                fe -= s * ph * y[0].dot(&y[1].cross(&y[2])) / 6.0;
                 g -= y[(a + 1) % 3].cross(&y[(a + 2) % 3]) * (s * ph / 6.0);
             }
+            e += fe;
         }
         if let Some((_, up)) = self.loads.self_weight {
             let w = s * self.vertex_mass_weight[v];
