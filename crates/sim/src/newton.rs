@@ -269,10 +269,13 @@ pub fn solve(
     // Damping scale D: the Hessian's diagonal at the start, floored at its median so that
     // dofs without stiffness at rest (out-of-plane motion of a flat membrane) get the
     // in-plane scale.
+    // (That evaluation, at full load where the solve starts, is also its first iteration's.)
+    let ta = Instant::now();
+    let mut first_evaluation = Some(sys.evaluate(&x, 1.0, true));
+    stats.assembly_seconds += ta.elapsed().as_secs_f64();
     let d_scale: Vec<f64> = {
-        let h = sys.evaluate(&x, 1.0, true).hessian.expect("requested");
+        let h = first_evaluation.as_ref().and_then(|ev| ev.hessian.as_ref()).expect("requested");
         let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| h[s].abs()).collect();
-        sys.recycle_hessian(h);
         let mut sorted = diag.clone();
         sorted.sort_by(f64::total_cmp);
         let median = sorted[sorted.len() / 2].max(f64::MIN_POSITIVE);
@@ -301,7 +304,10 @@ pub fn solve(
     let mut last_world_gradient;
     loop {
         let ta = Instant::now();
-        let ev = sys.evaluate(&x, s, true);
+        let ev = match first_evaluation.take() {
+            Some(ev) => ev,
+            None => sys.evaluate(&x, s, true),
+        };
         stats.assembly_seconds += ta.elapsed().as_secs_f64();
         last_world_gradient = ev.world_gradient;
         let gnorm = norm(&ev.gradient);
