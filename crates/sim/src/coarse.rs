@@ -14,8 +14,9 @@
 //! hardest, 189 → 84 fine iterations (84–150 in later builds, whose rounding differs: the
 //! count is that sensitive).
 //!
-//! The coarse mesh keeps every constrained vertex and every boundary vertex of the fine one
-//! (locked in the simplification), so its clamps are the same; loads and supports are the
+//! The coarse mesh keeps every boundary vertex of the fine one and every constrained vertex
+//! but those of a clamp's interior (fully fixed among fully fixed: they hold nothing its
+//! frontier does not), locked in the simplification, so its clamps hold the same lines; loads and supports are the
 //! same objects (the contact barrier is the fine mesh's). A fine
 //! vertex kept by the simplification starts where the coarse solve put it (which respects its
 //! constraints); every other one, free, is displaced like the closest point of the coarse
@@ -62,6 +63,9 @@ impl Default for CoarseOptions {
 /// Coarse meshes below this many faces are not worth a solve (a ratio too large for the mesh).
 pub const COARSE_MIN_FACES: usize = 500;
 
+/// Coarse meshes with fewer free (unconstrained) vertices are not worth a solve.
+pub const COARSE_MIN_FREE_VERTICES: usize = 100;
+
 /// A coarse level gets a coarse start of its own (a cascade) when the next level down would
 /// still have this many faces (kitten: 106k → 26.5k → 6.6k faces).
 pub const CASCADE_MIN_FACES: usize = 2000;
@@ -87,6 +91,9 @@ pub struct CoarseStats {
     pub faces: usize,
     /// Its vertices.
     pub vertices: usize,
+    /// Its vertices without constraints (the clamps' interiors are simplified, their
+    /// frontiers kept).
+    pub free_vertices: usize,
     /// Newton iterations of the coarse solve.
     pub newton_iterations: usize,
     /// Whether the coarse solve converged.
@@ -160,7 +167,20 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
         return Err(format!("a coarse mesh of {target_faces} faces is too small (at least {COARSE_MIN_FACES})"));
     }
     let clock = Instant::now();
-    let locked: Vec<bool> = mesh.vertices().map(|v| constraints.n_fixed(v) > 0).collect();
+    // Locked in the simplification: every partially constrained vertex, and every fully fixed
+    // one next to a vertex that is not (the clamp's frontier). Fully fixed vertices among
+    // fully fixed ones may be simplified away: they hold nothing the frontier does not, and a
+    // wide clamped band kept whole would leave little of the face budget to the free part
+    // (bunny_hr at 0.5 m: 2.5k clamped vertices; its second level kept 10 free vertices).
+    let fixed = |v: VertexId| constraints.n_fixed(v) == 3;
+    let locked: Vec<bool> = mesh
+        .vertices()
+        .map(|v| match constraints.n_fixed(v) {
+            0 => false,
+            3 => mesh.vertex_neighbors(v).into_iter().any(|w| !fixed(w)),
+            _ => true,
+        })
+        .collect();
     // The simplifier may return an invalid mesh (a non-manifold edge) or change the topology
     // at one face count and not at another: the target is tried, then 1.25 and 1.5 times it
     // (while that stays under half the faces).
@@ -195,6 +215,14 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     );
     stats.faces = coarse.mesh.n_faces();
     stats.vertices = coarse.mesh.n_vertices();
+    // A level with next to nothing free is not worth a solve.
+    let free = coarse.parent.iter().filter(|&&p| constraints.n_fixed(p) == 0).count();
+    stats.free_vertices = free;
+    if free < COARSE_MIN_FREE_VERTICES {
+        return Err(format!(
+            "the simplified mesh keeps only {free} free vertices (at least {COARSE_MIN_FREE_VERTICES})"
+        ));
+    }
     let cons = constraints.restrict(&coarse.parent);
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
@@ -234,7 +262,8 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let closest = ClosestPoint::new(&coarse.mesh);
     let normals = mesh.vertex_normals();
     let target = mesh.positions().as_slice();
-    // Kept vertices (every constrained one among them) start where the coarse solve put them.
+    // Kept vertices (every partially constrained one among them) start where the coarse
+    // solve put them; fully fixed ones that were simplified away, where they are held.
     let mut kept = vec![u32::MAX; mesh.n_vertices()];
     for (i, p) in coarse.parent.iter().enumerate() {
         kept[p.idx()] = i as u32;
@@ -246,7 +275,11 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
             if kept[v] != u32::MAX {
                 return res.positions[kept[v] as usize];
             }
-            debug_assert_eq!(constraints.n_fixed(VertexId(v as u32)), 0, "constrained vertices are locked, hence kept");
+            match constraints.n_fixed(VertexId(v as u32)) {
+                0 => {}
+                3 => return *p,
+                _ => debug_assert!(false, "partially constrained vertices are locked, hence kept"),
+            }
             let q = closest.query_facing(p, &normals[VertexId(v as u32)]);
             let c = coarse.mesh.face_vertices(q.face);
             p + disp[c[0].idx()] * q.weights[0] + disp[c[1].idx()] * q.weights[1] + disp[c[2].idx()] * q.weights[2]

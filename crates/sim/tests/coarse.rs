@@ -53,8 +53,8 @@ fn coarse_start_reaches_the_equilibrium_of_the_plain_solve() {
         assert!(st.faces > 0 && 2 * st.faces <= mesh.n_faces(), "{name}: {} coarse faces", st.faces);
         assert!(p.stats.coarse_start.is_none());
         // On meshes this small the start saves few fine iterations, if any (measured with the
-        // relaxed line search: sphere 10 from either start, free sphere 11 against 10); the bag,
-        // whose mold swings onto its floor, saves two (16 → 14).
+        // relaxed line search and clamp interiors simplified: sphere 8 against 10, free sphere
+        // 11 against 10); the bag, whose mold swings onto its floor, saves two (16 → 14).
         if name == "bag" {
             assert!(
                 c.stats.newton_iterations < p.stats.newton_iterations,
@@ -82,16 +82,17 @@ fn an_unusable_coarse_start_leaves_the_plain_solve() {
     assert!(st.note.as_deref().unwrap_or("").contains("did not converge"), "{st:?}");
     assert_eq!(c.positions.as_slice(), p.positions.as_slice());
     assert_eq!(c.stats.newton_iterations, p.stats.newton_iterations);
-    // The coarse solve converges (5 iterations) but the fine one from it does not within the
-    // allowance (it needs 10): the allowance is for the whole solve, so nothing is left for a
-    // second solve from the target, and the result is the one from the coarse start, marked.
-    let sc = Scenario { newton: NewtonOptions { max_iterations: 7, ..Default::default() }, ..Default::default() };
-    let (c, _) = solve_both(&mesh, &mat, &sc);
+    // The coarse solve converges (to its own tolerance, 10⁻⁶, in 9 iterations) but the fine one
+    // from it cannot (a tolerance of 10⁻¹⁵ is below round-off: it stalls near 5·10⁻¹³): the
+    // allowance is for the whole solve, so nothing is left for a second solve from the
+    // target, and the result is the one from the coarse start, marked.
+    let newton = NewtonOptions { max_iterations: 12, tolerance: 1e-15, ..Default::default() };
+    let (c, _) = solve_both(&mesh, &mat, &Scenario { newton, ..Default::default() });
     let st = c.stats.coarse_start.as_ref().expect("tried");
     assert!(st.converged && !c.stats.converged, "{st:?}");
-    assert_eq!(st.fine_iterations_discarded, 7, "{st:?}");
+    assert_eq!(st.fine_iterations_discarded, 12, "{st:?}");
     assert!(st.note.as_deref().unwrap_or("").contains("no iterations left"), "{st:?}");
-    assert_eq!(c.stats.newton_iterations, 7);
+    assert_eq!(c.stats.newton_iterations, 12);
     // Below the size threshold it is not tried at all.
     let sc =
         Scenario { coarse: Some(CoarseOptions { min_faces: 10 * mesh.n_faces(), ratio: 8 }), ..Default::default() };
@@ -145,6 +146,26 @@ fn a_cascade_of_coarse_levels_reaches_the_same_equilibrium() {
         assert!(coarse.seconds < fine.seconds, "a level's time includes the coarser ones'");
     }
     assert!(levels.last().expect("levels").faces / 2 < CASCADE_MIN_FACES, "the cascade stops at the floor");
+    let gap = max_gap(c.positions.as_slice(), p.positions.as_slice());
+    assert!(gap <= 1e-6 * p.stats.max_displacement_m, "equilibria {gap} m apart");
+}
+
+/// A wide clamped band: the coarse copy simplifies the band's interior and keeps its frontier,
+/// so most of its vertices are free (with the band kept whole, the sphere's 640-face copy had 9
+/// free vertices of 322); the equilibrium is the plain solve's.
+#[test]
+fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mesh = shapes::icosphere(4, 0.2);
+    // The top quarter of the sphere clamped.
+    let sc = Scenario { suspension: Suspension::TopBand { band: 0.1 }, ..Default::default() };
+    let (c, p) = solve_both(&mesh, &mat, &sc);
+    assert!(c.stats.converged && p.stats.converged);
+    let fixed = p.stats.fixed_vertices;
+    assert!(5 * fixed > mesh.n_vertices(), "{fixed} of {} vertices clamped", mesh.n_vertices());
+    let st = c.stats.coarse_start.as_ref().expect("tried");
+    assert!(st.used, "{st:?}");
+    assert!(2 * st.free_vertices > st.vertices, "{st:?}");
     let gap = max_gap(c.positions.as_slice(), p.positions.as_slice());
     assert!(gap <= 1e-6 * p.stats.max_displacement_m, "equilibria {gap} m apart");
 }
