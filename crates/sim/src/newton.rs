@@ -189,8 +189,19 @@ pub struct SolveStats {
     /// Whether single precision was chosen for the factorizations ([`FactorPrecision`]; steps
     /// may still fall back to double, counted in `single_fallbacks`).
     pub single_precision: bool,
-    /// Steps that fell back from a single- to a double-precision factor.
+    /// Steps that fell back from a single- to a double-precision factor: the sum of the four
+    /// counts below.
     pub single_fallbacks: usize,
+    /// Of those: a value out of single precision's range.
+    pub single_fallbacks_range: usize,
+    /// Of those: a pivot lost in single precision where the double-precision factorization of
+    /// the same matrix succeeded (round-off).
+    pub single_fallbacks_pivot: usize,
+    /// Of those: a pivot lost in single precision where the double-precision factorization
+    /// failed too (the matrix was not positive definite at that damping).
+    pub single_fallbacks_indefinite: usize,
+    /// Of those: a single-precision factor that preconditioned the step too poorly.
+    pub single_fallbacks_poor: usize,
     /// Trial steps whose overshooting vertices were relaxed ([`crate::relax`]).
     pub relaxations: usize,
     /// Steps accepted after a relaxation.
@@ -377,6 +388,9 @@ pub fn solve(
         stats.solve_seconds += ts.elapsed().as_secs_f64();
         if !reused {
             let mut single = use_single;
+            // A single-precision pivot lost, not yet told from indefiniteness by the double
+            // factorization of the same matrix.
+            let mut lost_single_pivot = false;
             // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
                 let ok = loop {
@@ -388,13 +402,26 @@ pub fn solve(
                     if res.is_ok() {
                         factor_times.push(dt);
                     }
+                    if std::mem::take(&mut lost_single_pivot) {
+                        match res {
+                            Ok(()) => stats.single_fallbacks_pivot += 1,
+                            Err(SolveError::NotPositiveDefinite { .. }) => stats.single_fallbacks_indefinite += 1,
+                            Err(_) => {}
+                        }
+                    }
                     match res {
                         Ok(()) => break true,
                         // A pivot lost in single precision, or a value out of its range:
                         // this step in double precision, at the same damping (the damping
                         // path stays that of the direct solve).
-                        Err(SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }) if single => {
+                        Err(ref e @ (SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }))
+                            if single =>
+                        {
                             stats.single_fallbacks += 1;
+                            match e {
+                                SolveError::OutOfRange { .. } => stats.single_fallbacks_range += 1,
+                                _ => lost_single_pivot = true,
+                            }
                             single = false;
                         }
                         Err(SolveError::NotPositiveDefinite { .. }) => {
@@ -435,6 +462,7 @@ pub fn solve(
                         Err(k) => {
                             stats.pcg_iterations += k;
                             stats.single_fallbacks += 1;
+                            stats.single_fallbacks_poor += 1;
                             poor_preconditioner += 1;
                             tracing::debug!("single-precision factor not accurate enough; double precision");
                             single = false;

@@ -403,6 +403,13 @@ fn single_precision_falls_back_to_double() {
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     assert_eq!(d.stats.solver.single_fallbacks, 0);
     assert!(s.stats.solver.single_fallbacks >= s.stats.newton_iterations, "{:?}", s.stats.solver);
+    // Every one of them out of range, and the breakdown sums to the total.
+    let st = &s.stats.solver;
+    assert_eq!(st.single_fallbacks_range, st.single_fallbacks, "{st:?}");
+    assert_eq!(
+        st.single_fallbacks_range + st.single_fallbacks_pivot + st.single_fallbacks_indefinite + st.single_fallbacks_poor,
+        st.single_fallbacks
+    );
     assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);
     let dmax = d.positions.iter().zip(&s.positions).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
     assert_eq!(dmax, 0.0, "the fallback is the double-precision solve itself");
