@@ -16,8 +16,8 @@
 //!
 //! The coarse mesh keeps every boundary vertex of the fine one and every constrained vertex
 //! but those of a clamp's interior (fully fixed among fully fixed: they hold nothing its
-//! frontier does not), locked in the simplification, so its clamps hold the same lines; loads and supports are the
-//! same objects (the contact barrier is the fine mesh's). A fine
+//! frontier does not), locked in the simplification, so its clamps hold the same lines;
+//! loads and supports are the same objects (the contact barrier is the fine mesh's). A fine
 //! vertex kept by the simplification starts where the coarse solve put it (which respects its
 //! constraints); every other one, free, is displaced like the closest point of the coarse
 //! target surface among the faces that face its way (barycentric interpolation of the coarse

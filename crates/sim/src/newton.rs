@@ -257,13 +257,13 @@ pub fn solve(
     // The fill-reducing ordering: AMD or nested dissection, whichever gives the smaller factor
     // (nested dissection wins on large meshes: kitten's factorization 0.30 → 0.21 s).
     let ordering = sys.dof_ordering()?;
-    tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, "vertex-graph factor sizes");
+    tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, nested = ordering.nested, "vertex-graph factor sizes");
     let mut split = None;
     // Two threads for the factorization and the solves when the factor is large enough to
     // pay for the separator's dense work (judged by the vertex graph's factor: with three
     // dofs per vertex the dofs' factor has about nine times its entries). Not conditioned on
     // the thread count: with one thread the halves run one after the other, same results.
-    if let Some(Some(parts)) = ordering.nested
+    if let Some(parts) = ordering.split
         && opts.split_factorization
         && 9 * ordering.nd_fill.unwrap_or(0) >= SPLIT_MIN_FACTOR_LEN
     {

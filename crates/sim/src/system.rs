@@ -50,9 +50,11 @@ const ND_LEAF: usize = 64;
 pub struct DofOrdering {
     /// The free dofs in elimination order.
     pub dofs: Vec<usize>,
-    /// Some when nested dissection was chosen: the dof counts of the two halves of its top
-    /// split (eliminated first, before their separator), if it split.
-    pub nested: Option<Option<[usize; 2]>>,
+    /// Whether nested dissection was chosen (else AMD).
+    pub nested: bool,
+    /// With nested dissection, the dof counts of the two halves of its top split (eliminated
+    /// first, before their separator), if it split.
+    pub split: Option<[usize; 2]>,
     /// Entries of the vertex graph's factor in AMD's order.
     pub amd_fill: usize,
     /// The same in nested dissection's order, when it was computed.
@@ -335,10 +337,12 @@ impl<'a> System<'a> {
                 let free = |nodes: &[usize]| -> usize {
                     nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
                 };
-                let parts = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
-                DofOrdering { dofs: self.dofs_in_node_order(&order), nested: Some(parts), amd_fill, nd_fill }
+                let split = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
+                DofOrdering { dofs: self.dofs_in_node_order(&order), nested: true, split, amd_fill, nd_fill }
             }
-            _ => DofOrdering { dofs: self.dofs_in_node_order(&amd_order), nested: None, amd_fill, nd_fill },
+            _ => {
+                DofOrdering { dofs: self.dofs_in_node_order(&amd_order), nested: false, split: None, amd_fill, nd_fill }
+            }
         })
     }
 
@@ -433,10 +437,18 @@ impl<'a> System<'a> {
             e -= s * h.work(p);
         }
         if self.loads.head_pressure != 0.0 {
-            let y = p.map(|q| q - self.volume_center);
-            e -= s * self.loads.head_pressure * y[0].dot(&y[1].cross(&y[2])) / 6.0;
+            e -= s * self.loads.head_pressure * self.volume_triple(p).1 / 6.0;
         }
         e
+    }
+
+    /// The corners relative to the volume centre, y, and six times the volume they enclose
+    /// with it, y0·(y1 × y2): the head pressure's work is `s · p · y0·(y1 × y2) / 6` (in that
+    /// order of operations, wherever a face's energy is summed).
+    #[inline]
+    fn volume_triple(&self, p: &[Vec3; 3]) -> ([Vec3; 3], f64) {
+        let y = p.map(|q| q - self.volume_center);
+        (y, y[0].dot(&y[1].cross(&y[2])))
     }
 
     /// Every face's share of Π at the point of the last [`System::evaluate`], by face id, into
@@ -525,8 +537,8 @@ impl<'a> System<'a> {
             if ph != 0.0 {
                 // The enclosed volume y0·(y1 × y2)/6 is linear in each corner: its corner block
                 // of the Hessian is zero.
-                let y = p.map(|q| q - self.volume_center);
-                fe -= s * ph * y[0].dot(&y[1].cross(&y[2])) / 6.0;
+                let (y, triple) = self.volume_triple(&p);
+                fe -= s * ph * triple / 6.0;
                 g -= y[(a + 1) % 3].cross(&y[(a + 2) % 3]) * (s * ph / 6.0);
             }
             e += fe;

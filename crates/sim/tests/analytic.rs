@@ -407,7 +407,10 @@ fn single_precision_falls_back_to_double() {
     let st = &s.stats.solver;
     assert_eq!(st.single_fallbacks_range, st.single_fallbacks, "{st:?}");
     assert_eq!(
-        st.single_fallbacks_range + st.single_fallbacks_pivot + st.single_fallbacks_indefinite + st.single_fallbacks_poor,
+        st.single_fallbacks_range
+            + st.single_fallbacks_pivot
+            + st.single_fallbacks_indefinite
+            + st.single_fallbacks_poor,
         st.single_fallbacks
     );
     assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);

@@ -149,8 +149,9 @@ fn a_cascade_of_coarse_levels_reaches_the_same_equilibrium() {
 }
 
 /// A wide clamped band: the coarse copy simplifies the band's interior and keeps its frontier,
-/// so most of its vertices are free (with the band kept whole, the sphere's 640-face copy had 9
-/// free vertices of 322); the equilibrium is the plain solve's.
+/// so most of its vertices are free (with every clamped vertex locked, the sphere's 640-face
+/// copy had 9 free vertices of 322 under the default 5 cm band); the equilibrium is the plain
+/// solve's.
 #[test]
 fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
