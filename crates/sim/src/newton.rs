@@ -166,6 +166,9 @@ pub struct SolveStats {
     pub iterations: usize,
     /// Numeric Cholesky factorizations (including ones refused as not positive definite).
     pub factorizations: usize,
+    /// Of those, factorizations in double precision (all of them when `single_precision` is
+    /// false; otherwise the fallbacks' factorizations).
+    pub double_factorizations: usize,
     /// Seconds in numeric factorization.
     pub factorization_seconds: f64,
     /// Median time of a successful factorization: the floor of one Newton step.
@@ -198,7 +201,9 @@ pub struct SolveStats {
     /// the same matrix succeeded (round-off).
     pub single_fallbacks_pivot: usize,
     /// Of those: a pivot lost in single precision where the double-precision factorization
-    /// failed too (the matrix was not positive definite at that damping).
+    /// failed too (the matrix was not positive definite at that damping). The raised
+    /// damping's factorizations are then single-precision again: one double-precision
+    /// factorization per such step.
     pub single_fallbacks_indefinite: usize,
     /// Of those: a single-precision factor that preconditioned the step too poorly.
     pub single_fallbacks_poor: usize,
@@ -391,6 +396,11 @@ pub fn solve(
             // A single-precision pivot lost, not yet told from indefiniteness by the double
             // factorization of the same matrix.
             let mut lost_single_pivot = false;
+            // The double-precision factorization confirmed that the matrix is not positive
+            // definite at this step's damping: the damping is raised, and the retries go back
+            // to single precision, where a failure is then taken as the same indefiniteness
+            // (no second double-precision factorization to tell it from a lost pivot).
+            let mut indefinite = false;
             // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
                 let ok = loop {
@@ -398,6 +408,7 @@ pub fn solve(
                     let res = factor.refactor(&chol, sys.pattern(), &vals, single);
                     let dt = tf.elapsed().as_secs_f64();
                     stats.factorizations += 1;
+                    stats.double_factorizations += usize::from(!single);
                     stats.factorization_seconds += dt;
                     if res.is_ok() {
                         factor_times.push(dt);
@@ -405,12 +416,28 @@ pub fn solve(
                     if std::mem::take(&mut lost_single_pivot) {
                         match res {
                             Ok(()) => stats.single_fallbacks_pivot += 1,
-                            Err(SolveError::NotPositiveDefinite { .. }) => stats.single_fallbacks_indefinite += 1,
+                            Err(SolveError::NotPositiveDefinite { .. }) => {
+                                stats.single_fallbacks_indefinite += 1;
+                                indefinite = true;
+                            }
                             Err(_) => {}
                         }
                     }
                     match res {
                         Ok(()) => break true,
+                        Err(SolveError::NotPositiveDefinite { .. }) if !single || indefinite => {
+                            mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
+                            if mu > 1e12 {
+                                break false;
+                            }
+                            for (&slot, &b) in sys.diagonal_slots().iter().zip(&base) {
+                                vals[slot] = b;
+                            }
+                            add_damping(&mut vals, mu);
+                            if indefinite {
+                                single = use_single;
+                            }
+                        }
                         // A pivot lost in single precision, or a value out of its range:
                         // this step in double precision, at the same damping (the damping
                         // path stays that of the direct solve).
@@ -423,16 +450,6 @@ pub fn solve(
                                 _ => lost_single_pivot = true,
                             }
                             single = false;
-                        }
-                        Err(SolveError::NotPositiveDefinite { .. }) => {
-                            mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
-                            if mu > 1e12 {
-                                break false;
-                            }
-                            for (&slot, &b) in sys.diagonal_slots().iter().zip(&base) {
-                                vals[slot] = b;
-                            }
-                            add_damping(&mut vals, mu);
                         }
                         Err(e) => return Err(e),
                     }
@@ -497,6 +514,7 @@ pub fn solve(
         let slope: f64 = ev.gradient.iter().zip(&step).map(|(g, d)| g * d).sum();
         let mut alpha = sys.max_feasible_step(&x, &step);
         let mut accepted = 0.0;
+        let mut accepted_energy = ev.energy;
         if slope < 0.0 {
             // Round-off of Π grows with the magnitude of the summed terms; once the predicted
             // decrease is below it, the step is accepted if Π does not rise beyond it.
@@ -543,6 +561,7 @@ pub fn solve(
                 }
                 if sufficient(e, alpha) {
                     accepted = alpha;
+                    accepted_energy = e;
                     break;
                 }
                 alpha *= 0.5;
@@ -559,11 +578,21 @@ pub fn solve(
         };
         history.push(report);
         progress(&report);
+        // For the log: the decrease achieved against the quadratic model's at the accepted
+        // step length α (with (H + μD)d = −g, dᵀHd = −gᵀd − μdᵀDd, so the model's change is
+        // αgᵀd − ½α²(gᵀd + μdᵀDd)): how well the model held along the step.
+        let model_ratio = if accepted > 0.0 && tracing::enabled!(tracing::Level::DEBUG) {
+            let dd: f64 = step.iter().zip(&d_scale).map(|(d, s)| s * d * d).sum();
+            (accepted_energy - ev.energy) / (accepted * slope - 0.5 * accepted * accepted * (slope + mu * dd))
+        } else {
+            f64::NAN
+        };
         tracing::debug!(
             iteration = report.iteration,
             energy = report.energy,
             residual = r,
             step = accepted,
+            model_ratio,
             damping = mu,
             load = s,
             reused,

@@ -376,6 +376,40 @@ fn single_precision_factor_follows_the_double_precision_path() {
     assert!(dmax < 1e-6 * disp, "equilibria differ by {dmax} m (displacement {disp} m)");
 }
 
+/// A matrix not positive definite at the step's damping (the hanging, filled cylinder, a
+/// step where the pressure's stiffness outweighs the membrane's): the single-precision
+/// factorization fails, the double-precision one of the same matrix confirms it, and the
+/// factorizations at the raised damping are single-precision again: one double-precision
+/// factorization per such step. The path is the double-precision solve's.
+#[test]
+fn indefinite_steps_return_to_single_precision() {
+    use clothcast_sim::newton::FactorPrecision;
+    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/cylinder.obj"));
+    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
+    let scale = 0.5 / mesh.bbox().extent().z;
+    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let run = |p: FactorPrecision| {
+        let sc = Scenario { newton: NewtonOptions { factor_precision: p, ..Default::default() }, ..Default::default() };
+        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{p:?}: {:?}", r.stats.termination);
+        r
+    };
+    let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
+    let st = &s.stats.solver;
+    assert!(st.single_fallbacks_indefinite > 0, "{st:?}");
+    assert_eq!(st.single_fallbacks, st.single_fallbacks_indefinite, "{st:?}");
+    assert_eq!(st.double_factorizations, st.single_fallbacks_indefinite, "{st:?}");
+    assert_eq!(d.stats.solver.double_factorizations, d.stats.solver.factorizations);
+    // The same damping path: each confirmation is one factorization more than the direct solve's.
+    assert_eq!(st.factorizations, d.stats.solver.factorizations + st.single_fallbacks_indefinite);
+    assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);
+    for (a, b) in d.history.iter().zip(&s.history) {
+        assert_eq!(a.damping, b.damping);
+        assert_eq!(a.step, b.step);
+    }
+}
+
 /// Stiffnesses beyond single precision's range (Y = 10⁴⁰ N/m, inflated to λ = 1.1 as in the
 /// analytic sphere test): every single-precision factorization is refused as out of range,
 /// each step falls back to double precision, and the equilibrium is the double-precision one.
