@@ -42,6 +42,21 @@ const NO_PICK: u8 = u8::MAX;
 /// Below this many vertices AMD alone is as good as nested dissection (fertility, 4.5k
 /// vertices: AMD's factor is the faster one), so the second ordering is not computed.
 const ND_MIN_VERTICES: usize = 5000;
+
+/// How many times AMD's factor entries nested dissection may have and still be chosen, where
+/// its top split lets the factorization run on two threads (AMD's runs on one). Kitten's
+/// 26.6k-face coarse level (AMD 314k vertex-graph entries, nested dissection 352k, 1.12×):
+/// 42–52 → 33–38 ms per factorization, its solve 3.0–3.2 → 2.4–2.5 s (two alternating runs).
+pub const SPLIT_FILL_ALLOWANCE: f64 = 1.25;
+
+/// Whether nested dissection is chosen over AMD, by their vertex-graph factor entries, and
+/// whether its top split can be used (see [`System::dof_ordering`]).
+fn prefer_nested(amd_fill: usize, nd_fill: usize, splittable: bool) -> bool {
+    nd_fill < amd_fill
+        || (splittable
+            && 9 * nd_fill >= crate::newton::SPLIT_MIN_FACTOR_LEN
+            && (nd_fill as f64) < SPLIT_FILL_ALLOWANCE * amd_fill as f64)
+}
 /// Nested-dissection parts of at most this many vertices are ordered by AMD.
 const ND_LEAF: usize = 64;
 
@@ -307,10 +322,13 @@ impl<'a> System<'a> {
     /// the vertex graph (each vertex then expanded to its free dofs: cheaper than ordering
     /// the dof pattern, and as good): AMD, or, on systems of at least [`ND_MIN_VERTICES`]
     /// vertices, nested dissection by the rest positions ([`clothcast_mesh::ordering`]) when
-    /// its vertex-graph factor has fewer entries. The two orderings are computed in parallel,
+    /// its vertex-graph factor has fewer entries, or, when `split` allows a factorization split
+    /// over two threads and the factor is large enough for it
+    /// ([`crate::newton::SPLIT_MIN_FACTOR_LEN`]), up to [`SPLIT_FILL_ALLOWANCE`] times as
+    /// many. The two orderings are computed in parallel,
     /// and compared by a simplicial analysis of the vertex graph instead of the dof-level
     /// analysis of both (kitten's symbolic phase, with the split analysis: 0.62 → 0.33 s).
-    pub fn dof_ordering(&self) -> Result<DofOrdering, clothcast_mesh::sparse::SolveError> {
+    pub fn dof_ordering(&self, split: bool) -> Result<DofOrdering, clothcast_mesh::sparse::SolveError> {
         use clothcast_mesh::ordering::nested_dissection_with_top;
         use clothcast_mesh::sparse::CholeskySolver;
         let n = self.mesh.n_vertices();
@@ -333,7 +351,7 @@ impl<'a> System<'a> {
         let nd = nd.flatten();
         let nd_fill = nd.as_ref().map(|d| d.2);
         Ok(match nd {
-            Some((order, top, fill)) if fill < amd_fill => {
+            Some((order, top, fill)) if prefer_nested(amd_fill, fill, split && top.is_some()) => {
                 let free = |nodes: &[usize]| -> usize {
                     nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
                 };
@@ -848,6 +866,19 @@ mod tests {
     /// The compact, reordered, parallel assembly sums exactly what the plain one did, in the
     /// same order (so the same values, to the bit), with rotated frames and fixed dofs (faces
     /// with fewer than 45 picks), and on a recycled buffer that held garbage.
+    /// Nested dissection is chosen with the smaller factor, or with one up to 25% larger than
+    /// AMD's when it can be split over two threads and is large enough for that (the numbers
+    /// of kitten's 26.6k-face coarse level: AMD 313 694 entries, nested dissection 352 104).
+    #[test]
+    fn nested_dissection_is_preferred_where_it_splits() {
+        assert!(prefer_nested(100, 99, false));
+        assert!(!prefer_nested(313_694, 352_104, false));
+        assert!(prefer_nested(313_694, 352_104, true));
+        // Beyond the allowance, or too small a factor to split.
+        assert!(!prefer_nested(313_694, 400_000, true));
+        assert!(!prefer_nested(150_000, 177_031, true));
+    }
+
     #[test]
     fn assembly_equals_the_plain_face_order_scatter() {
         let mesh = clothcast_mesh::shapes::icosphere(2, 0.3);
