@@ -56,7 +56,9 @@ pub struct NewtonOptions {
     /// Precision of the sparse factorization.
     pub factor_precision: FactorPrecision,
     /// Factor the two halves of the nested dissection's top split on two threads (large
-    /// systems only, see [`SPLIT_MIN_FACTOR_LEN`]).
+    /// systems only, see [`SPLIT_MIN_FACTOR_LEN`]). It also lets nested dissection be chosen
+    /// with a somewhat larger factor than AMD's for its split
+    /// ([`crate::system::SPLIT_FILL_ALLOWANCE`]), so turning it off can change the ordering.
     pub split_factorization: bool,
     /// Sweeps of local relaxation ([`crate::relax`]) of the vertices a rejected trial step
     /// sent too far, before the step is shortened; 0: none (plain backtracking).
@@ -192,8 +194,8 @@ pub struct SolveStats {
     /// Whether single precision was chosen for the factorizations ([`FactorPrecision`]; steps
     /// may still fall back to double, counted in `single_fallbacks`).
     pub single_precision: bool,
-    /// Steps that fell back from a single- to a double-precision factor: the sum of the four
-    /// counts below.
+    /// Fallbacks from a single- to a double-precision factor (a step may fall back more than
+    /// once): the sum of the four counts below.
     pub single_fallbacks: usize,
     /// Of those: a value out of single precision's range.
     pub single_fallbacks_range: usize,
@@ -202,8 +204,8 @@ pub struct SolveStats {
     pub single_fallbacks_pivot: usize,
     /// Of those: a pivot lost in single precision where the double-precision factorization
     /// failed too (the matrix was not positive definite at that damping). The raised
-    /// damping's factorizations are then single-precision again: one double-precision
-    /// factorization per such step.
+    /// damping's factorizations are then single-precision again: normally one
+    /// double-precision factorization per such fallback.
     pub single_fallbacks_indefinite: usize,
     /// Of those: a single-precision factor that preconditioned the step too poorly.
     pub single_fallbacks_poor: usize,
@@ -283,7 +285,11 @@ pub fn solve(
     }
     let chol = match split {
         Some(s) => s,
-        None => CholeskySolver::with_ordering(sys.pattern(), Some(&ordering.dofs))?,
+        // Without its split, nested dissection chosen for it (with the larger factor) gives
+        // way to AMD.
+        None => {
+            CholeskySolver::with_ordering(sys.pattern(), Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)))?
+        }
     };
     tracing::debug!(len = chol.factor_len(), "factor size");
     stats.symbolic_seconds = t.elapsed().as_secs_f64();
@@ -402,6 +408,9 @@ pub fn solve(
             // to single precision, where a failure is then taken as the same indefiniteness
             // (no second double-precision factorization to tell it from a lost pivot).
             let mut indefinite = false;
+            // Set by that confirmation: the next damping raise returns to single precision
+            // (once; a later fallback for range or a poor factor keeps double for the step).
+            let mut back_to_single = false;
             // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
                 let ok = loop {
@@ -420,6 +429,7 @@ pub fn solve(
                             Err(SolveError::NotPositiveDefinite { .. }) => {
                                 stats.single_fallbacks_indefinite += 1;
                                 indefinite = true;
+                                back_to_single = true;
                             }
                             Err(_) => {}
                         }
@@ -435,13 +445,15 @@ pub fn solve(
                                 vals[slot] = b;
                             }
                             add_damping(&mut vals, mu);
-                            if indefinite {
+                            if std::mem::take(&mut back_to_single) {
                                 single = use_single;
                             }
                         }
                         // A pivot lost in single precision, or a value out of its range:
                         // this step in double precision, at the same damping (the damping
-                        // path stays that of the direct solve).
+                        // path stays that of the direct solve until a double factorization
+                        // has confirmed the step's matrix indefinite; after that a
+                        // single-precision failure is taken as the same indefiniteness).
                         Err(ref e @ (SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }))
                             if single =>
                         {

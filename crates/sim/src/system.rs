@@ -49,7 +49,7 @@ const ND_MIN_VERTICES: usize = 5000;
 /// 42–52 → 33–38 ms per factorization, its solve 3.0–3.2 → 2.4–2.5 s (two alternating runs).
 pub const SPLIT_FILL_ALLOWANCE: f64 = 1.25;
 
-/// Whether nested dissection is chosen over AMD, by their vertex-graph factor entries, and
+/// Whether nested dissection is chosen over AMD, by their vertex-graph factor entries, given
 /// whether its top split can be used (see [`System::dof_ordering`]).
 fn prefer_nested(amd_fill: usize, nd_fill: usize, splittable: bool) -> bool {
     nd_fill < amd_fill
@@ -57,6 +57,7 @@ fn prefer_nested(amd_fill: usize, nd_fill: usize, splittable: bool) -> bool {
             && 9 * nd_fill >= crate::newton::SPLIT_MIN_FACTOR_LEN
             && (nd_fill as f64) < SPLIT_FILL_ALLOWANCE * amd_fill as f64)
 }
+
 /// Nested-dissection parts of at most this many vertices are ordered by AMD.
 const ND_LEAF: usize = 64;
 
@@ -74,6 +75,9 @@ pub struct DofOrdering {
     pub amd_fill: usize,
     /// The same in nested dissection's order, when it was computed.
     pub nd_fill: Option<usize>,
+    /// AMD's dof order, kept where nested dissection was chosen with the larger factor for
+    /// its split: the order to fall back to if the split cannot be analysed.
+    pub amd_dofs: Option<Vec<usize>>,
 }
 
 /// A face as the assembly's per-face loop reads it, in storage order.
@@ -356,11 +360,17 @@ impl<'a> System<'a> {
                     nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
                 };
                 let split = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
-                DofOrdering { dofs: self.dofs_in_node_order(&order), nested: true, split, amd_fill, nd_fill }
+                let amd_dofs = (fill >= amd_fill).then(|| self.dofs_in_node_order(&amd_order));
+                DofOrdering { dofs: self.dofs_in_node_order(&order), nested: true, split, amd_fill, nd_fill, amd_dofs }
             }
-            _ => {
-                DofOrdering { dofs: self.dofs_in_node_order(&amd_order), nested: false, split: None, amd_fill, nd_fill }
-            }
+            _ => DofOrdering {
+                dofs: self.dofs_in_node_order(&amd_order),
+                nested: false,
+                split: None,
+                amd_fill,
+                nd_fill,
+                amd_dofs: None,
+            },
         })
     }
 
@@ -863,9 +873,6 @@ mod tests {
         (energy, grad, vals)
     }
 
-    /// The compact, reordered, parallel assembly sums exactly what the plain one did, in the
-    /// same order (so the same values, to the bit), with rotated frames and fixed dofs (faces
-    /// with fewer than 45 picks), and on a recycled buffer that held garbage.
     /// Nested dissection is chosen with the smaller factor, or with one up to 25% larger than
     /// AMD's when it can be split over two threads and is large enough for that (the numbers
     /// of kitten's 26.6k-face coarse level: AMD 313 694 entries, nested dissection 352 104).
@@ -879,6 +886,9 @@ mod tests {
         assert!(!prefer_nested(150_000, 177_031, true));
     }
 
+    /// The compact, reordered, parallel assembly sums exactly what the plain one did, in the
+    /// same order (so the same values, to the bit), with rotated frames and fixed dofs (faces
+    /// with fewer than 45 picks), and on a recycled buffer that held garbage.
     #[test]
     fn assembly_equals_the_plain_face_order_scatter() {
         let mesh = clothcast_mesh::shapes::icosphere(2, 0.3);
