@@ -35,10 +35,13 @@ fn check_run(out: &Path) -> Value {
         "seam_length_mismatch_max_rel",
         "fiber_alignment_median_deg",
         "orientation",
+        "outlines_repaired",
+        "outlines_not_simple",
         "seconds",
     ] {
         assert!(!fl[k].is_null(), "flattening.{k} missing");
     }
+    assert_eq!(fl["outlines_not_simple"], 0);
     let pt = &s["patterns"];
     for k in ["pieces", "seams", "notches", "fabric_width_mm", "fabric_length_mm", "utilisation", "files", "seconds"] {
         assert!(!pt[k].is_null(), "patterns.{k} missing");
@@ -115,6 +118,34 @@ fn run_on_fertility_writes_everything() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let s = check_run(&out);
     assert_eq!(s["input"]["genus"], 4);
+}
+
+/// bob_small (genus 1, 500 faces) at 0.5 m has a patch whose flattened outline looped over
+/// itself, and the pattern stage refused it (exit 1): its boundary curvature is now smoothed
+/// until the outline is simple, and every piece is cut.
+#[test]
+fn a_self_crossing_outline_is_repaired_and_cut() {
+    let out = tmpdir("bob_small");
+    let o = run(&[
+        "run",
+        data("closed/bob_small.ply").to_str().unwrap(),
+        "--height",
+        "0.5",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let fl = &s["flattening"];
+    assert_eq!(fl["outlines_not_simple"], 0);
+    assert_eq!(fl["flipped_triangles"], 0);
+    assert!(fl["outlines_repaired"].as_u64().unwrap() >= 1, "{fl}");
+    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() < 0.1, "{fl}");
+    assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
+    let svg = std::fs::read_to_string(out.join("patterns/pattern.svg")).unwrap();
+    let cut = svg.split("<g id=\"cut\"").nth(1).unwrap().split("</g>").next().unwrap();
+    assert_eq!(cut.matches("data-piece=").count() as u64, s["patterns"]["pieces"].as_u64().unwrap());
 }
 
 #[test]

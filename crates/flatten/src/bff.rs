@@ -75,11 +75,36 @@ pub struct BffOptions {
     /// unregularised matrix is not numerically positive definite (shifts 1e-12, 1e-10, … up to
     /// this value). Default `1e-6`.
     pub max_regularization: f64,
+    /// Smoothing of the target boundary curvature, dimensionless (0: none, the default). With
+    /// s > 0 the curvature density κ = k̃ / (dual length) is diffused along the boundary loop,
+    /// `(D + t L) κ' = D κ` with D the dual lengths, L the loop's Laplacian (weights 1/ℓ) and
+    /// t = s × (boundary length)²: Σ k̃ = 2π is kept and the boundary lengths too, while the
+    /// curve tends to a circle as s grows (about s ≥ 1). Used to make a self-overlapping
+    /// outline simple ([`crate::pieces`]).
+    pub boundary_smoothing: f64,
+    /// Turning taken off a stretch of the boundary: the target boundary curvature of the loop
+    /// vertices `first..=last` (positions along `boundary_loops()[0]`, cyclic) is scaled by
+    /// 1 − `fraction`, and what it loses is spread over the other boundary vertices by dual
+    /// length (a uniform curvature density: the rest of the outline bends a little, its
+    /// corners stay as sharp). Used to uncurl a stretch of outline that loops over itself
+    /// ([`crate::pieces`]). `None` (the default): the curvature as BFF gives it.
+    pub boundary_relief: Option<BoundaryRelief>,
+}
+
+/// A stretch of boundary whose turning is reduced ([`BffOptions::boundary_relief`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundaryRelief {
+    /// First loop vertex of the stretch.
+    pub first: usize,
+    /// Last loop vertex of the stretch (cyclic: may be below `first`).
+    pub last: usize,
+    /// Fraction of the stretch's turning taken off, in [0, 1].
+    pub fraction: f64,
 }
 
 impl Default for BffOptions {
     fn default() -> Self {
-        Self { cotan_area_floor: 1e-10, max_regularization: 1e-6 }
+        Self { cotan_area_floor: 1e-10, max_regularization: 1e-6, boundary_smoothing: 0.0, boundary_relief: None }
     }
 }
 
@@ -253,6 +278,34 @@ fn factor_interior(b: &Blocks, max_reg: f64) -> Result<(CholeskyFactor, f64), Fl
     Err(last.into())
 }
 
+/// The boundary curvature `kt` (per loop vertex; edge j of length `lengths[j]` joins vertices
+/// j and j + 1) with its density diffused along the loop for a time `t` (length²): solves
+/// `(D + t L) κ' = k̃` (D the dual lengths, L the loop Laplacian with weights 1/ℓ) and returns
+/// D κ'. Since 1ᵀL = 0 the total curvature is unchanged; as t → ∞ the density becomes uniform
+/// (a circle).
+fn smooth_boundary_curvature(kt: &[f64], lengths: &[f64], t: f64) -> Result<Vec<f64>, FlattenError> {
+    let nb = kt.len();
+    let dual: Vec<f64> = (0..nb).map(|j| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb])).collect();
+    let next = |j: usize| (j + 1) % nb;
+    let entries = (0..nb).flat_map(|j| [(j, j), (j.max(next(j)), j.min(next(j)))]);
+    let pattern = SymmetricPattern::from_entries(nb, entries);
+    let mut values = vec![0.0; pattern.nnz()];
+    for j in 0..nb {
+        values[pattern.slot(j, j)] += dual[j];
+        let k = next(j);
+        let w = t / lengths[j].max(f64::MIN_POSITIVE);
+        values[pattern.slot(j, j)] += w;
+        values[pattern.slot(k, k)] += w;
+        values[pattern.slot(j.max(k), j.min(k))] -= w;
+    }
+    let factor = CholeskySolver::new(&pattern)?.factor(&pattern, &values)?;
+    let mut density = kt.to_vec();
+    factor.solve_in_place(&mut density);
+    let smoothed: Vec<f64> = density.iter().zip(&dual).map(|(k, d)| k * d).collect();
+    check_finite(&smoothed, "the smoothed boundary curvature")?;
+    Ok(smoothed)
+}
+
 fn check_finite(values: &[f64], what: &str) -> Result<(), FlattenError> {
     match values.iter().position(|x| !x.is_finite()) {
         None => Ok(()),
@@ -316,6 +369,25 @@ pub fn bff_flatten(mesh: &Mesh, options: &BffOptions) -> Result<Flattening, Flat
         kt[j] += residual * dual / total_len;
     }
     tracing::debug!(residual, "BFF: curvature closing residual");
+    if let Some(r) = options.boundary_relief
+        && r.first < nb
+        && r.last < nb
+    {
+        let in_stretch =
+            |j: usize| if r.first <= r.last { (r.first..=r.last).contains(&j) } else { j >= r.first || j <= r.last };
+        let dual = |j: usize| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb]);
+        let f = r.fraction.clamp(0.0, 1.0);
+        let removed: f64 = (0..nb).filter(|&j| in_stretch(j)).map(|j| f * kt[j]).sum();
+        let rest: f64 = (0..nb).filter(|&j| !in_stretch(j)).map(dual).sum();
+        if rest > 0.0 {
+            for j in 0..nb {
+                kt[j] = if in_stretch(j) { (1.0 - f) * kt[j] } else { kt[j] + removed * dual(j) / rest };
+            }
+        }
+    }
+    if options.boundary_smoothing > 0.0 {
+        kt = smooth_boundary_curvature(&kt, &lengths, options.boundary_smoothing * total_len * total_len)?;
+    }
 
     // Eq. 3: tangents, closed lengths, boundary curve.
     let mut tangents = Vec::with_capacity(nb);

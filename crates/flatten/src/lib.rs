@@ -29,8 +29,9 @@ pub mod bff;
 pub mod error;
 pub mod pieces;
 
-pub use bff::{BffOptions, Flattening, FlatteningStats, bff_flatten, distortion};
+pub use bff::{BffOptions, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 pub use error::FlattenError;
 pub use pieces::{
-    FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, PieceReport, SeamRun, flatten_segmentation,
+    FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, OutlineRepair, PieceFlattening, PieceReport,
+    SeamRun, flatten_piece, flatten_segmentation, outline_crossing,
 };

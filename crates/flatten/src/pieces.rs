@@ -33,7 +33,7 @@
 //!
 //! Complexity: one sparse factorization per patch (BFF), O(F) otherwise.
 
-use crate::bff::{BffOptions, FlatteningStats, bff_flatten, distortion};
+use crate::bff::{BffOptions, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 use crate::error::FlattenError;
 use clothcast_layout::Segmentation;
 use clothcast_layout::cutgraph::cut_open;
@@ -139,6 +139,10 @@ pub struct FlattenReport {
     pub retried: usize,
     /// Vertices moved by the untangling of flipped triangles.
     pub repaired_vertices: usize,
+    /// Pieces whose flattened outline crossed itself and was made simple ([`flatten_piece`]).
+    pub outlines_repaired: usize,
+    /// Pieces whose outline still crosses itself (the pattern stage refuses them).
+    pub outlines_not_simple: usize,
     /// Total 2D / 3D area straight out of BFF (before the common scale).
     pub area_ratio_bff: f64,
     /// The common scale applied to all pieces (1 when `match_area` is off).
@@ -222,28 +226,30 @@ pub fn flatten_segmentation(
         let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| original[v.idx()]);
         let seg_face = sub.face_to_parent.clone();
         let pm = sub.mesh;
-        let mut flat =
-            bff_flatten(&pm, &opts.bff).map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
-        if flat.stats.flipped_triangles > 0 {
-            report.retried += 1;
-            let stronger = BffOptions { cotan_area_floor: opts.bff.cotan_area_floor.max(1e-6), ..opts.bff.clone() };
-            if let Ok(f2) = bff_flatten(&pm, &stronger)
-                && f2.stats.flipped_triangles < flat.stats.flipped_triangles
-            {
-                flat = f2;
-            }
-            if flat.stats.flipped_triangles > 0 {
-                report.repaired_vertices += untangle(&pm, &mut flat.uv);
-                flat.stats = distortion(&pm, &flat.uv);
-            }
-            if flat.stats.flipped_triangles > 0 {
-                tracing::warn!(
-                    patch = p,
-                    flipped = flat.stats.flipped_triangles,
-                    "flattened patch has flipped triangles"
-                );
-            }
+        let piece =
+            flatten_piece(&pm, &opts.bff).map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+        report.retried += usize::from(piece.retried);
+        report.repaired_vertices += piece.repaired_vertices;
+        if piece.flattening.stats.flipped_triangles > 0 {
+            tracing::warn!(
+                patch = p,
+                flipped = piece.flattening.stats.flipped_triangles,
+                "flattened patch has flipped triangles"
+            );
         }
+        match (piece.outline_repair, piece.outline_simple) {
+            (_, false) => {
+                report.outlines_not_simple += 1;
+                tracing::warn!(patch = p, "flattened outline crosses itself");
+            }
+            (Some(how), true) => {
+                report.outlines_repaired += 1;
+                tracing::info!(patch = p, ?how, "flattened outline crossed itself: re-flattened with a simple one");
+            }
+            (None, true) => {}
+        }
+        let flat = piece.flattening;
+        let outline = piece.outline;
         // Field directions mapped into the piece's plane, and their weights.
         let mapped: Vec<(f64, f64, f64)> = pm
             .face_ids()
@@ -254,7 +260,6 @@ pub fn flatten_segmentation(
                 (theta, area, area * (anisotropy[sf].clamp(0.0, 1.0) + 0.05))
             })
             .collect();
-        let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
         let phi_field = field_rotation(&mapped);
         let phi_sides = side_rotation(&flat.uv, &outline, &seg_vertex, &seg.patches[p].corners);
         let (phi, phi_other) = match opts.orientation {
@@ -494,6 +499,132 @@ fn seam_mismatch(runs: &[Vec<SeamRun>], n_seams: usize) -> f64 {
 /// flipped faces (then their 1-ring, 2-ring, …) move to the mean of their neighbours, a few
 /// sweeps per round; boundary vertices join only when interior moves are not enough. Returns the
 /// number of vertices moved.
+/// One flattened piece ([`flatten_piece`]).
+#[derive(Clone, Debug)]
+pub struct PieceFlattening {
+    /// The layout and its distortion.
+    pub flattening: Flattening,
+    /// The boundary loop's vertices (counter-clockwise), the piece's outline.
+    pub outline: Vec<VertexId>,
+    /// Whether the first flattening had flipped triangles and was retried.
+    pub retried: bool,
+    /// Vertices moved by the untangling of flipped triangles.
+    pub repaired_vertices: usize,
+    /// How an outline that crossed itself was made simple, if one did.
+    pub outline_repair: Option<OutlineRepair>,
+    /// Whether the outline is simple (no two of its edges cross or touch).
+    pub outline_simple: bool,
+}
+
+/// How [`flatten_piece`] made a self-crossing outline simple.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OutlineRepair {
+    /// The looping stretch's turning reduced ([`BffOptions::boundary_relief`]).
+    Uncurled(BoundaryRelief),
+    /// The whole boundary curvature smoothed ([`BffOptions::boundary_smoothing`]).
+    Smoothed {
+        /// The smoothing used.
+        smoothing: f64,
+    },
+}
+
+/// Flattens one disk-shaped piece by BFF ([`bff_flatten`]). Flipped triangles: retried with a
+/// stronger cotangent floor, then untangled. An outline that crosses itself, which cannot be
+/// cut (BFF lays the boundary out from its curvature, and where a patch nearly pinches, e.g.
+/// three sharp corners in a row, the curve can loop over itself with every triangle positive):
+/// flattened again with the looping stretch's turning reduced ([`BffOptions::boundary_relief`],
+/// the least fraction that makes the outline simple without more flipped triangles), or
+/// failing that with the whole boundary curvature smoothed
+/// ([`BffOptions::boundary_smoothing`]). The boundary lengths are kept up to the curve's
+/// closing (a few percent near the loop), so the seams still nearly match; the triangles along
+/// the loop take the distortion.
+///
+/// # Errors
+/// Those of [`bff_flatten`] on the first flattening.
+pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, FlattenError> {
+    let mut flat = bff_flatten(pm, bff)?;
+    let (mut retried, mut repaired_vertices) = (false, 0);
+    if flat.stats.flipped_triangles > 0 {
+        retried = true;
+        let stronger = BffOptions { cotan_area_floor: bff.cotan_area_floor.max(1e-6), ..bff.clone() };
+        if let Ok(f2) = bff_flatten(pm, &stronger)
+            && f2.stats.flipped_triangles < flat.stats.flipped_triangles
+        {
+            flat = f2;
+        }
+        if flat.stats.flipped_triangles > 0 {
+            repaired_vertices += untangle(pm, &mut flat.uv);
+            flat.stats = distortion(pm, &flat.uv);
+        }
+    }
+    let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
+    let mut outline_repair = None;
+    let crossing = outline_crossing(&flat.uv, &outline);
+    if let Some((i, j)) = crossing {
+        // A candidate re-flattening is taken if its outline is simple with no more flipped
+        // triangles (after untangling).
+        let try_with = |o: &BffOptions| -> Option<(Flattening, usize)> {
+            let mut f2 = bff_flatten(pm, o).ok()?;
+            let mut moved = 0;
+            if f2.stats.flipped_triangles > 0 {
+                moved = untangle(pm, &mut f2.uv);
+                f2.stats = distortion(pm, &f2.uv);
+            }
+            (f2.stats.flipped_triangles <= flat.stats.flipped_triangles && outline_crossing(&f2.uv, &outline).is_none())
+                .then_some((f2, moved))
+        };
+        // First the stretch of outline between the two crossing edges, the shorter way round
+        // (the loop), is uncurled: its turning reduced step by step, the rest of the outline
+        // bending a little to close the curve. Edge i ends at vertex i + 1 and edge j starts
+        // at vertex j: the stretch is vertices i + 1 ..= j, or the other way round j + 1 ..= i.
+        let n = outline.len();
+        let arc = |a: usize, b: usize| -> f64 {
+            let (mut len, mut k) = (0.0, a);
+            while k != b {
+                len += (flat.uv[outline[(k + 1) % n]] - flat.uv[outline[k]]).norm();
+                k = (k + 1) % n;
+            }
+            len
+        };
+        let (first, last) =
+            if arc((i + 1) % n, j) <= arc((j + 1) % n, i) { ((i + 1) % n, j) } else { ((j + 1) % n, i) };
+        let uncurled = RELIEF_FRACTIONS.iter().find_map(|&fraction| {
+            let relief = BoundaryRelief { first, last, fraction };
+            try_with(&BffOptions { boundary_relief: Some(relief), ..bff.clone() })
+                .map(|r| (r, OutlineRepair::Uncurled(relief)))
+        });
+        // Then, if that does not do, the whole boundary curvature is smoothed.
+        let repaired = uncurled.or_else(|| {
+            OUTLINE_SMOOTHING.iter().find_map(|&smoothing| {
+                try_with(&BffOptions { boundary_smoothing: smoothing, ..bff.clone() })
+                    .map(|r| (r, OutlineRepair::Smoothed { smoothing }))
+            })
+        });
+        if let Some(((f2, moved), how)) = repaired {
+            flat = f2;
+            repaired_vertices += moved;
+            outline_repair = Some(how);
+        }
+    }
+    let outline_simple = crossing.is_none() || outline_repair.is_some();
+    Ok(PieceFlattening { flattening: flat, outline, retried, repaired_vertices, outline_repair, outline_simple })
+}
+
+/// Fractions of a looping stretch's turning taken off, in order ([`BffOptions::boundary_relief`]).
+const RELIEF_FRACTIONS: [f64; 20] =
+    [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 1.0];
+
+/// Boundary smoothings tried, in order, on an outline that crosses itself (dimensionless, see
+/// [`BffOptions::boundary_smoothing`]; the last ones are nearly a circle).
+const OUTLINE_SMOOTHING: [f64; 12] = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 1.0];
+
+/// The first pair of outline edges that cross or touch in the layout `uv` (edge i joins
+/// outline vertices i and i + 1), `None` for a simple outline.
+pub fn outline_crossing(uv: &VertexData<Vec2>, outline: &[VertexId]) -> Option<(usize, usize)> {
+    let poly: Vec<[f64; 2]> = outline.iter().map(|&v| [uv[v].x, uv[v].y]).collect();
+    clothcast_mesh::polygon::find_self_intersection(&poly)
+}
+
 fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
     let signed = |uv: &VertexData<Vec2>, f: FaceId| {
         let [a, b, c] = mesh.face_vertices(f).map(|v| uv[v]);

@@ -385,3 +385,70 @@ proptest! {
         prop_assert!(signed_area(&p, &fl.uv) > 0.0);
     }
 }
+
+/// Boundary smoothing keeps the boundary closed and its lengths, and tends to a circle: a
+/// 2:1 rectangle, whose corners hold all the turning, comes out nearly round at s = 10, and
+/// a little smoothing moves it only a little.
+#[test]
+fn boundary_smoothing_tends_to_a_circle() {
+    let rect = shapes::grid(24, 12, 2.0, 1.0);
+    let spread = |fl: &Flattening| {
+        let boundary: Vec<Vec2> = rect.boundary_loops()[0].iter().map(|&h| fl.uv[rect.tail(h)]).collect();
+        let c = boundary.iter().sum::<Vec2>() / boundary.len() as f64;
+        let r: Vec<f64> = boundary.iter().map(|p| (p - c).norm()).collect();
+        r.iter().copied().fold(0.0, f64::max) / r.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    let plain = flatten(&rect);
+    // The rectangle itself: corner distance √(1 + 0.25) against 0.5 at the long sides' middles.
+    assert!((spread(&plain) - 1.25f64.sqrt() / 0.5).abs() < 1e-6, "{}", spread(&plain));
+    let mut last = spread(&plain);
+    for s in [1e-3, 1e-2, 1e-1, 10.0] {
+        let fl = bff_flatten(&rect, &BffOptions { boundary_smoothing: s, ..Default::default() }).unwrap();
+        let st = &fl.stats;
+        println!("s = {s}: radius spread {:.4}, {st:?}", spread(&fl));
+        assert_eq!(st.flipped_triangles, 0, "s = {s}");
+        assert!(spread(&fl) < last, "s = {s}: the outline rounds off monotonically");
+        last = spread(&fl);
+        assert!(st.boundary_length_error_max_rel < 0.05, "s = {s}: {st:?}");
+    }
+    assert!(last < 1.05, "nearly a circle at s = 10: radius spread {last}");
+}
+
+/// Boundary relief: a stretch's turning is scaled by 1 − fraction and the rest of the outline
+/// takes what it lost as a uniform density. Relieving one corner of a rectangle fully makes
+/// it straight in the layout; the other corners keep their right angles plus a small share.
+#[test]
+fn boundary_relief_straightens_its_stretch() {
+    use clothcast_flatten::BoundaryRelief;
+    let rect = shapes::grid(24, 12, 2.0, 1.0);
+    let lp: Vec<_> = rect.boundary_loops()[0].iter().map(|&h| rect.tail(h)).collect();
+    let n = lp.len();
+    let is_corner = |v: clothcast_mesh::VertexId| {
+        let p = rect.position(v);
+        (p.x == 0.0 || p.x == 2.0) && (p.y == 0.0 || p.y == 1.0)
+    };
+    let corners: Vec<usize> = (0..n).filter(|&j| is_corner(lp[j])).collect();
+    assert_eq!(corners.len(), 4);
+    let c = corners[1];
+    let fl = bff_flatten(
+        &rect,
+        &BffOptions {
+            boundary_relief: Some(BoundaryRelief { first: c, last: c, fraction: 1.0 }),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let turning = |j: usize| {
+        let (a, b, d) = (fl.uv[lp[(j + n - 1) % n]], fl.uv[lp[j]], fl.uv[lp[(j + 1) % n]]);
+        let (u, w) = (b - a, d - b);
+        u.perp(&w).atan2(u.dot(&w))
+    };
+    let total: f64 = (0..n).map(turning).sum();
+    assert!((total - std::f64::consts::TAU).abs() < 1e-9, "{total}");
+    assert!(turning(c).abs() < 1e-9, "the relieved corner is straight: {}", turning(c));
+    for &k in corners.iter().filter(|&&k| k != c) {
+        let t = turning(k);
+        assert!(t > std::f64::consts::FRAC_PI_2 && t < std::f64::consts::FRAC_PI_2 + 0.1, "corner {k}: {t}");
+    }
+    assert_eq!(fl.stats.flipped_triangles, 0);
+}

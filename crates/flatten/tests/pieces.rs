@@ -48,10 +48,19 @@ fn every_patch_flattens_without_flips_and_seams_match() {
         assert_eq!(flat.patches.len(), seg.patches.len());
         assert_eq!(r.flipped_triangles, 0, "{name}");
         assert!(flat.patches.iter().all(|p| p.stats.flipped_triangles == 0));
+        // Every outline can be cut: simple (fertility's curvature-field layout has one piece whose
+        // outline looped over itself and was uncurled, which costs its seams a little length).
+        assert_eq!(r.outlines_not_simple, 0, "{name}");
         assert!(
-            r.seam_length_mismatch_max_rel <= 0.005,
-            "{name}: seam sides differ by {}",
-            r.seam_length_mismatch_max_rel
+            flat.patches.iter().all(|p| clothcast_flatten::outline_crossing(&p.uv, &p.outline).is_none()),
+            "{name}"
+        );
+        let limit = if r.outlines_repaired > 0 { 0.03 } else { 0.005 };
+        assert!(
+            r.seam_length_mismatch_max_rel <= limit,
+            "{name}: seam sides differ by {} ({} outlines repaired)",
+            r.seam_length_mismatch_max_rel,
+            r.outlines_repaired
         );
         assert!(r.qc_mean < 1.05, "{name}: qc {}", r.qc_mean);
         // Every seam has exactly two sides among the pieces.
@@ -119,4 +128,34 @@ fn orientation_rules() {
     let ext = hi - lo;
     assert!((ext.x.max(ext.y) - 4.0).abs() < 1e-6 && (ext.x.min(ext.y) - 1.0).abs() < 1e-6, "extent {ext}");
     assert!((by_side.report.fiber_alignment_median_deg - 30.0).abs() < 1e-6);
+}
+
+/// A patch whose BFF outline loops over itself (one piece of the built-in segmentation of
+/// bob_small at 0.5 m: three sharp boundary corners in a row; every triangle positive) is
+/// flattened with a simple outline by smoothing its boundary curvature, with no flipped
+/// triangle and its boundary lengths within a few percent.
+#[test]
+fn a_self_crossing_outline_is_made_simple() {
+    let m = data("derived/bob_pinched_patch.obj");
+    let plain = clothcast_flatten::bff_flatten(&m, &clothcast_flatten::BffOptions::default()).unwrap();
+    let outline: Vec<_> = m.boundary_loops()[0].iter().map(|&h| m.tail(h)).collect();
+    assert_eq!(plain.stats.flipped_triangles, 0);
+    assert!(
+        clothcast_flatten::outline_crossing(&plain.uv, &outline).is_some(),
+        "the patch's plain BFF outline crosses itself (what this test is about)"
+    );
+    let piece = clothcast_flatten::flatten_piece(&m, &clothcast_flatten::BffOptions::default()).unwrap();
+    let s = &piece.flattening.stats;
+    println!("{:?}: {s:?}", piece.outline_repair);
+    assert!(piece.outline_simple && piece.outline_repair.is_some());
+    assert_eq!(piece.outline, outline);
+    assert!(clothcast_flatten::outline_crossing(&piece.flattening.uv, &outline).is_none());
+    assert_eq!(s.flipped_triangles, 0);
+    assert!(s.boundary_length_error_max_rel < 0.05, "{s:?}");
+    // A piece that needs nothing is left as BFF made it.
+    let grid = shapes::grid(8, 6, 0.4, 0.3);
+    let fine = clothcast_flatten::flatten_piece(&grid, &Default::default()).unwrap();
+    let direct = clothcast_flatten::bff_flatten(&grid, &Default::default()).unwrap();
+    assert!(fine.outline_simple && fine.outline_repair.is_none() && !fine.retried);
+    assert_eq!(fine.flattening.uv, direct.uv);
 }

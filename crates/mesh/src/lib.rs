@@ -24,6 +24,7 @@ pub mod ids;
 pub mod io;
 pub mod mesh;
 pub mod ordering;
+pub mod polygon;
 pub mod repair;
 pub mod shapes;
 pub mod simplify;

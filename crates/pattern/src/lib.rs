@@ -72,7 +72,7 @@
 //! ```
 
 pub mod error;
-pub mod geom;
+pub use clothcast_mesh::polygon as geom;
 pub mod input;
 pub mod nest;
 pub mod offset;

@@ -1,6 +1,7 @@
-//! Small 2D geometry kernel shared by the pattern stages and the tests.
+//! Small 2D geometry kernel on plain point arrays: the pattern stage's (re-exported there as
+//! `clothcast_pattern::geom`, in millimetres) and the flattening's outline check.
 //!
-//! Points are `[f64; 2]` in millimetres, y up. Polygons are closed implicitly (no repeated last
+//! Points are `[f64; 2]`, y up. Polygons are closed implicitly (no repeated last
 //! vertex); counter-clockwise means positive [`signed_area`]. Predicates use plain `f64`
 //! arithmetic: they are exact for the axis-aligned and well-separated inputs a pattern holds
 //! and consistent (the same input always gives the same answer) otherwise.
@@ -8,7 +9,7 @@
 //! Complexity: every polygon function is O(n); [`find_self_intersection`] is O(n log n + k)
 //! with a sweep over x-sorted edge boxes (k = edge pairs whose x-ranges overlap).
 
-/// A point or vector in the plane, in millimetres.
+/// A point or vector in the plane (millimetres in the pattern stage).
 pub type P2 = [f64; 2];
 
 /// `a + b`.
