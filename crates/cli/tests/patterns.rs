@@ -148,6 +148,32 @@ fn a_self_crossing_outline_is_repaired_and_cut() {
     assert_eq!(cut.matches("data-piece=").count() as u64, s["patterns"]["pieces"].as_u64().unwrap());
 }
 
+/// A 2 m sphere does not fit a 1.5 m roll in the default layout's pieces (it used to stop with
+/// exit 2 asking for a wider roll): its patches are split until every piece fits.
+#[test]
+fn pieces_are_split_to_fit_the_roll() {
+    let out = tmpdir("sphere2m");
+    let o = run(&[
+        "run",
+        data("closed/sphere.obj").to_str().unwrap(),
+        "--height",
+        "2.0",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let (seg, pt) = (&s["segmentation"], &s["patterns"]);
+    assert!(seg["size_splits"].as_u64().unwrap() + pt["layout_retries"].as_u64().unwrap() > 0, "{seg} {pt}");
+    assert_eq!(pt["fabric_width_mm"], 1500.0);
+    assert_eq!(pt["pieces"], seg["patches"]);
+    // The pieces' areas still add up to the sphere's.
+    let target = s["input"]["area_m2"].as_f64().unwrap();
+    let pieces_area = pt["pieces_area_mm2"].as_f64().unwrap() * 1e-6;
+    assert!((pieces_area / target - 1.0).abs() < 0.02, "{pieces_area} against {target}");
+}
+
 #[test]
 fn flatten_command_and_determinism() {
     let a = tmpdir("det-a");

@@ -96,8 +96,15 @@ pub struct LayoutOptions {
     pub min_patch_fraction: f64,
     /// Remeshing snap distance (share of an edge).
     pub snap: f64,
-    /// Upper bound on developability splits.
+    /// Upper bound on developability splits (and, separately, on size splits).
     pub max_splits: usize,
+    /// Largest patch extent (metres: the longest shortest path through the patch, a bound on
+    /// its flattened piece's width in any direction) before a patch is split, and that no merge
+    /// may exceed; the CLI sets it so that every piece fits the fabric roll with its seam
+    /// allowance. Infinite (the default): no limit.
+    pub max_patch_extent: f64,
+    /// Patches to split further (what a first layout left too wide for the roll).
+    pub split_hints: Vec<SplitHint>,
     /// Seed of the tracing order and the spectral start vectors.
     pub seed: u64,
 }
@@ -117,9 +124,22 @@ impl Default for LayoutOptions {
             min_patch_fraction: 0.005,
             snap: 0.2,
             max_splits: 64,
+            max_patch_extent: f64::INFINITY,
+            split_hints: Vec::new(),
             seed: 1,
         }
     }
+}
+
+/// A patch of an earlier layout to split further: the input mesh's faces it held and the share
+/// of its extent each piece of it may keep. Patches are laid out the same way up to the
+/// splits (the same input and options), so the patch holding most of these faces is it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SplitHint {
+    /// Faces of the input mesh.
+    pub faces: Vec<FaceId>,
+    /// Largest extent of its pieces, as a share of the patch's own (in (0, 1]).
+    pub shrink: f64,
 }
 
 /// One seam: a chain of mesh edges between two nodes, and the patches on its two sides.
@@ -174,6 +194,8 @@ pub struct SegmentationStats {
     pub merges: usize,
     /// Developability splits.
     pub splits: usize,
+    /// Splits of patches wider than `max_patch_extent` (pieces that would not fit the roll).
+    pub size_splits: usize,
     /// Cusps repaired on the final seams (a patch's thin spike between two seams leaving a
     /// junction along one field arm, given to a neighbour; see `late_repairs`).
     pub cusp_repairs: usize,
@@ -233,6 +255,18 @@ struct Stage {
     singular: VertexData<bool>,
     /// Singularity index (quarter turns) of every vertex, 0 for regular ones.
     index: VertexData<i32>,
+    /// What no merge may exceed: the largest extent and the split hints' targets.
+    limits: Limits,
+}
+
+/// The size limits of a layout ([`LayoutOptions::max_patch_extent`], [`SplitHint`]) and the
+/// hints' targets once known.
+#[derive(Clone, Debug)]
+struct Limits {
+    max_extent: f64,
+    hints: Vec<SplitHint>,
+    targets: Vec<f64>,
+    input_faces: usize,
 }
 
 impl Stage {
@@ -241,7 +275,7 @@ impl Stage {
     fn remeshed(&self, r: &crate::remesh::Remeshed, seam: EdgeData<bool>) -> Stage {
         let face_parent = r.face_parent.map(|&f| self.face_parent[f]);
         let (singular, index) = (r.carry(&self.singular, false), r.carry(&self.index, 0));
-        Stage { mesh: r.mesh.clone(), face_parent, seam, singular, index }
+        Stage { mesh: r.mesh.clone(), face_parent, seam, singular, index, limits: self.limits.clone() }
     }
 }
 
@@ -284,24 +318,36 @@ pub fn segment(
     let (cuts, _) = make_disks(mesh, &dirs, &mut seam, opts.drift_penalty, phi_max)?;
     stats.extra_cuts = cuts.len() + attached;
 
-    let mut stage = Stage { mesh: mesh.clone(), face_parent: mesh.face_ids().collect(), seam, singular, index };
+    let limits = Limits {
+        max_extent: opts.max_patch_extent,
+        hints: opts.split_hints.clone(),
+        targets: vec![f64::NAN; opts.split_hints.len()],
+        input_faces: mesh.n_faces(),
+    };
+    let mut stage = Stage { mesh: mesh.clone(), face_parent: mesh.face_ids().collect(), seam, singular, index, limits };
 
     // 3.–5. Merge, split, tiny patches, on the traced (jagged) seams: corners are measured
     // between chords a few edges long, as the straightened seams will run.
+    let hint_targets: Vec<f64>;
     let (seam, merges, splits, tiny_merges) = {
         let scores = vertex_scores(&stage.mesh);
         let mut state =
             State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &dirs, CHORD_STEPS);
+        state.limit(&stage);
         let merges = if opts.merge { state.merge_quads(opts.max_developability, false) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
+        let size_splits = state.split_oversized(opts.max_patch_extent, MAX_SIZE_SPLITS, &vf, &trace_opts)?
+            + state.split_hinted(&opts.split_hints, MAX_SIZE_SPLITS, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
         let to_quads = state.split_to_quads(&vf, &trace_opts, opts.max_splits);
         let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area(), &dirs, opts.drift_penalty, phi_max);
-        (state.seam, merges, splits + concave + to_quads, tiny)
+        hint_targets = state.hints.as_ref().map(|m| m.targets.clone()).unwrap_or_default();
+        (state.seam, merges, (splits + concave + to_quads, size_splits), tiny)
     };
     stage.seam = seam;
+    stage.limits.targets = hint_targets;
     stats.merges = merges + tiny_merges;
-    stats.splits = splits;
+    (stats.splits, stats.size_splits) = splits;
 
     // 6. Smooth seams: straighten and remesh once.
     stats.straightened = opts.smooth_seams;
@@ -646,6 +692,7 @@ fn on_stage<R>(
     let field = final_field(stage, dirs);
     let scores = vertex_scores(&stage.mesh);
     let mut state = State::new(&stage.mesh, &stage.seam, &stage.singular, &stage.index, &scores, &field, chords);
+    state.limit(stage);
     let r = f(&mut state, &field);
     (state.seam, r)
 }
@@ -909,6 +956,10 @@ struct State<'a> {
     rule: CornerRule,
     degree: VertexData<u32>,
     mean_edge: f64,
+    /// No merge may make a patch wider than this ([`LayoutOptions::max_patch_extent`]).
+    max_extent: f64,
+    /// Split hints: no merge may make a hinted patch wider than its target.
+    hints: Option<HintMap>,
 }
 
 /// A cusp repair ([`State::zip_cusps`]): the spike's faces, the patch that receives them and
@@ -952,7 +1003,16 @@ impl<'a> State<'a> {
             rule: CornerRule::new(mesh, index).with_chords(chords).with_field(field.clone()),
             degree: network::seam_degree(mesh, seam),
             mean_edge: mesh.mean_edge_length(),
+            max_extent: f64::INFINITY,
+            hints: None,
         }
+    }
+
+    /// The stage's size limits ([`Limits`]) on this state.
+    fn limit(&mut self, stage: &Stage) {
+        let l = &stage.limits;
+        self.max_extent = l.max_extent;
+        self.hints = HintMap::new(&l.hints, &stage.face_parent, l.input_faces, l.targets.clone());
     }
 
     /// Seam edges grouped by the (sorted) pair of labels on their sides.
@@ -1005,6 +1065,15 @@ impl<'a> State<'a> {
         let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
         let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
         let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
+        if self.max_extent.is_finite() && region_extent(self.mesh, &union) > self.max_extent {
+            return None;
+        }
+        if let Some(t) = self.hints.as_ref().and_then(|m| m.majority(&union).map(|h| m.targets[h]))
+            && t.is_finite()
+            && region_extent(self.mesh, &union) > t
+        {
+            return None;
+        }
         let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
         let score = region_score(self.mesh, &union, &label, &seam, self.scores);
         Some((info, score, union))
@@ -1736,10 +1805,73 @@ impl<'a> State<'a> {
         vf: &VertexField,
         trace: &TraceOptions,
     ) -> Result<usize, LayoutError> {
-        let seed = trace.seed;
         if !max_dev.is_finite() {
             return Ok(0);
         }
+        self.split_worst(max_dev, max_splits, vf, trace, |state, p| {
+            let label = |f: FaceId| state.label[f];
+            let seam = |e: EdgeId| state.seam[e];
+            region_score(state.mesh, &state.faces[p as usize], &label, &seam, state.scores)
+        })
+    }
+
+    /// Split patches wider than `max_extent` ([`region_extent`]), widest first, so that every
+    /// piece fits the fabric roll; returns the splits.
+    fn split_oversized(
+        &mut self,
+        max_extent: f64,
+        max_splits: usize,
+        vf: &VertexField,
+        trace: &TraceOptions,
+    ) -> Result<usize, LayoutError> {
+        if !max_extent.is_finite() {
+            return Ok(0);
+        }
+        self.split_worst(max_extent, max_splits, vf, trace, |state, p| {
+            region_extent(state.mesh, &state.faces[p as usize])
+        })
+    }
+
+    /// Split the patches that hold most of a hint's faces ([`HintMap`]) until each is within
+    /// its hint's target: the extent of the patch that held it when first seen here, times the
+    /// hint's shrink; returns the splits.
+    fn split_hinted(
+        &mut self,
+        hints: &[SplitHint],
+        max_splits: usize,
+        vf: &VertexField,
+        trace: &TraceOptions,
+    ) -> Result<usize, LayoutError> {
+        let Some(mut map) = self.hints.take() else { return Ok(0) };
+        for fs in &self.faces {
+            if let Some(h) = map.majority(fs)
+                && map.targets[h].is_nan()
+            {
+                map.targets[h] = region_extent(self.mesh, fs) * hints[h].shrink.clamp(0.05, 1.0);
+            }
+        }
+        self.hints = Some(map);
+        self.split_worst(0.0, max_splits, vf, trace, |state, p| {
+            let fs = &state.faces[p as usize];
+            match state.hints.as_ref().and_then(|m| m.majority(fs).map(|h| m.targets[h])) {
+                Some(t) if t.is_finite() => region_extent(state.mesh, fs) / t - 1.0,
+                _ => f64::NEG_INFINITY,
+            }
+        })
+    }
+
+    /// Split the patch with the largest `measure` above `threshold` in two disks (spectral
+    /// clustering, the seam traced along the field), until none is above it, up to
+    /// `max_splits`; a patch that cannot be split is left.
+    fn split_worst(
+        &mut self,
+        threshold: f64,
+        max_splits: usize,
+        vf: &VertexField,
+        trace: &TraceOptions,
+        measure: impl Fn(&Self, u32) -> f64,
+    ) -> Result<usize, LayoutError> {
+        let seed = trace.seed;
         let mut splits = 0;
         let mut failed: BTreeSet<u32> = BTreeSet::new();
         while splits < max_splits {
@@ -1749,10 +1881,8 @@ impl<'a> State<'a> {
                 if self.faces[p as usize].is_empty() || failed.contains(&p) {
                     continue;
                 }
-                let label = |f: FaceId| self.label[f];
-                let seam = |e: EdgeId| self.seam[e];
-                let s = region_score(self.mesh, &self.faces[p as usize], &label, &seam, self.scores);
-                if s > max_dev && worst.is_none_or(|(w, _)| s > w) {
+                let s = measure(self, p);
+                if s > threshold && worst.is_none_or(|(w, _)| s > w) {
                     worst = Some((s, p));
                 }
             }
@@ -1781,6 +1911,90 @@ impl<'a> State<'a> {
         }
         Ok(splits)
     }
+}
+
+/// The split hints on a state's mesh: each face's hint (through its input face), and each
+/// hint's target extent (NaN until the patch holding it is first seen).
+#[derive(Clone, Debug)]
+struct HintMap {
+    of_face: FaceData<u32>,
+    targets: Vec<f64>,
+}
+
+impl HintMap {
+    /// `parent`: the input face of each of the mesh's faces.
+    fn new(hints: &[SplitHint], parent: &FaceData<FaceId>, input_faces: usize, targets: Vec<f64>) -> Option<Self> {
+        if hints.is_empty() {
+            return None;
+        }
+        let mut of_input = vec![u32::MAX; input_faces];
+        for (i, h) in hints.iter().enumerate() {
+            for &f in &h.faces {
+                if f.idx() < input_faces {
+                    of_input[f.idx()] = i as u32;
+                }
+            }
+        }
+        Some(Self { of_face: parent.map(|&f| of_input[f.idx()]), targets })
+    }
+
+    /// The hint holding most of these faces, if it holds at least half of them.
+    fn majority(&self, faces: &[FaceId]) -> Option<usize> {
+        let mut count: BTreeMap<u32, usize> = BTreeMap::new();
+        for &f in faces {
+            if self.of_face[f] != u32::MAX {
+                *count.entry(self.of_face[f]).or_default() += 1;
+            }
+        }
+        let (&h, &n) = count.iter().max_by_key(|&(&h, &n)| (n, std::cmp::Reverse(h)))?;
+        (2 * n >= faces.len()).then_some(h as usize)
+    }
+}
+
+/// Upper bound on size splits ([`LayoutOptions::max_patch_extent`], [`SplitHint`]), each kind.
+const MAX_SIZE_SPLITS: usize = 512;
+
+/// The extent of a region: the longest shortest path along its edges between two of its
+/// vertices, found by a double sweep (Dijkstra from a vertex, then from the farthest one).
+/// Edge paths run a little longer than straight lines, so this bounds the flattened piece's
+/// width in every direction from above, up to the flattening's own stretch.
+fn region_extent(mesh: &Mesh, faces: &[FaceId]) -> f64 {
+    use clothcast_mesh::util::MinCost;
+    use std::collections::BinaryHeap;
+    let mut inside = BTreeSet::new();
+    for &f in faces {
+        inside.extend(mesh.face_vertices(f));
+    }
+    let Some(&start) = inside.first() else { return 0.0 };
+    let sweep = |from: VertexId| -> (VertexId, f64) {
+        let mut dist: BTreeMap<VertexId, f64> = BTreeMap::new();
+        let mut heap = BinaryHeap::new();
+        dist.insert(from, 0.0);
+        heap.push(MinCost(0.0, from.idx() as u32));
+        let mut far = (from, 0.0);
+        while let Some(item) = heap.pop() {
+            let (d, v) = (item.0, VertexId::new(item.1 as usize));
+            if d > dist[&v] {
+                continue;
+            }
+            if d > far.1 {
+                far = (v, d);
+            }
+            for w in mesh.vertex_neighbors(v) {
+                if !inside.contains(&w) {
+                    continue;
+                }
+                let nd = d + (mesh.position(w) - mesh.position(v)).norm();
+                if dist.get(&w).is_none_or(|&old| nd < old) {
+                    dist.insert(w, nd);
+                    heap.push(MinCost(nd, w.idx() as u32));
+                }
+            }
+        }
+        far
+    };
+    let (far, _) = sweep(start);
+    sweep(far).1
 }
 
 #[cfg(test)]

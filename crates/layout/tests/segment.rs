@@ -281,3 +281,74 @@ fn late_repairs_never_lose_quads_and_gain_some() {
     }
     assert!(gained.iter().any(|&g| g), "the late repairs changed nothing on any mesh");
 }
+
+/// The largest distance between two vertices of each patch (a lower bound of its extent).
+fn patch_chords(seg: &Segmentation) -> Vec<f64> {
+    let mut verts: Vec<BTreeSet<VertexId>> = vec![BTreeSet::new(); seg.stats.patches];
+    for (f, &p) in seg.patch_of_face.enumerate() {
+        verts[p as usize].extend(seg.mesh.face_vertices(f));
+    }
+    verts
+        .iter()
+        .map(|vs| {
+            let ps: Vec<Vec3> = vs.iter().map(|&v| seg.mesh.position(v)).collect();
+            let mut best = 0.0f64;
+            for (i, a) in ps.iter().enumerate() {
+                for b in &ps[i + 1..] {
+                    best = best.max((a - b).norm());
+                }
+            }
+            best
+        })
+        .collect()
+}
+
+/// Size limits (what makes pieces fit the fabric roll): with `max_patch_extent` the cube layout
+/// of a sphere of radius 1 m is split until every patch's extent is within it; a split hint
+/// then splits the patch holding its faces further, to its share of its extent.
+#[test]
+fn patches_are_split_to_the_size_limit_and_the_hints() {
+    let mesh = shapes::icosphere(4, 1.0);
+    let (field, sing) = cube_field(&mesh);
+    let plain = segment(&mesh, &field, &sing, &LayoutOptions::default()).unwrap();
+    check_valid("plain", &plain);
+    let widest = patch_chords(&plain).into_iter().fold(0.0, f64::max);
+    assert_eq!(plain.stats.size_splits, 0);
+    // The six cube faces: each about 1.6 m across (a corner-to-corner chord).
+    assert!(widest > 1.2, "{widest}");
+    let limit = 1.0;
+    let opts = LayoutOptions { max_patch_extent: limit, ..Default::default() };
+    let small = segment(&mesh, &field, &sing, &opts).unwrap();
+    check_valid("limited", &small);
+    let chords = patch_chords(&small);
+    println!(
+        "{} patches, {} size splits, widest chord {:.3} m",
+        small.stats.patches,
+        small.stats.size_splits,
+        chords.iter().fold(0.0f64, |a, &b| a.max(b))
+    );
+    assert!(small.stats.size_splits > 0 && small.stats.patches > plain.stats.patches);
+    assert!(chords.iter().all(|&c| c <= limit), "{chords:?}");
+    // A hint on the widest patch of the limited layout, halving it.
+    let (p, &c) = chords.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap();
+    let faces: Vec<_> =
+        small.patch_of_face.enumerate().filter(|&(_, &q)| q as usize == p).map(|(f, _)| small.face_parent[f]).collect();
+    let hinted = LayoutOptions {
+        split_hints: vec![clothcast_layout::SplitHint { faces: faces.clone(), shrink: 0.5 }],
+        ..opts.clone()
+    };
+    let split = segment(&mesh, &field, &sing, &hinted).unwrap();
+    check_valid("hinted", &split);
+    assert!(split.stats.patches > small.stats.patches);
+    // The patches now holding those faces are narrower than the hinted one was.
+    let holding: BTreeSet<u32> = split
+        .patch_of_face
+        .enumerate()
+        .filter(|&(f, _)| faces.contains(&split.face_parent[f]))
+        .map(|(_, &q)| q)
+        .collect();
+    let chords2 = patch_chords(&split);
+    for q in holding {
+        assert!(chords2[q as usize] < c, "patch {q}: {} against {c}", chords2[q as usize]);
+    }
+}

@@ -9,8 +9,13 @@ use crate::progress::Progress;
 use crate::stages;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
+use clothcast_layout::SplitHint;
+use clothcast_mesh::FaceId;
 use clothcast_mesh::io::write_atomic;
 use std::time::Instant;
+
+/// Layouts made again, smaller, when a piece did not fit the roll.
+const ROLL_RETRIES: usize = 4;
 
 /// The last stage to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -79,26 +84,66 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         None
     };
 
-    // Stage 3: segmentation.
-    let segmentation = match &field {
-        Some(f) if until >= Until::Segmentation => {
-            let seg = stages::segmentation::run(&cfg, &input, f, progress)?;
-            stages.segmentation = Some(StageTime { seconds: seg.stats.seconds });
-            stages::segmentation::write_outputs(&args.out, &input, &seg)?;
-            written.extend(["segmentation.ply", "seams.obj"]);
-            Some(seg)
+    // Stages 3 and 4: segmentation, flattening and patterns. The layout splits patches wider
+    // than the roll allows (by their extent on the surface); pieces that still do not fit
+    // once flattened (a flattening stretches) are split in a new layout, each to its share of
+    // the roll, up to `ROLL_RETRIES` times.
+    let mut hints: Vec<SplitHint> = Vec::new();
+    let mut retries = 0;
+    let mut last_too_wide: Vec<(u32, f64)> = Vec::new();
+    let (segmentation, patterns) = loop {
+        let Some(f) = field.as_ref().filter(|_| until >= Until::Segmentation) else { break (None, None) };
+        let seg = stages::segmentation::run(&cfg, &input, f, &hints, progress)?;
+        if until < Until::Patterns {
+            break (Some(seg), None);
         }
-        _ => None,
+        match stages::patterns::run(&cfg, &input, f, &seg, progress) {
+            Err(Failure::Input(e)) if e.downcast_ref::<stages::patterns::TooWide>().is_some() => {
+                let pieces =
+                    e.downcast_ref::<stages::patterns::TooWide>().map(|t| t.pieces.clone()).unwrap_or_default();
+                // The same pieces as last time: the layout could not split them (too few faces,
+                // or no cut into two disks), and it would not next time either.
+                if retries == ROLL_RETRIES || pieces == last_too_wide {
+                    stages::segmentation::write_outputs(&args.out, &input, &seg)?;
+                    return Err(Failure::Input(anyhow::anyhow!(
+                        "{e} (after {} layout(s) splitting the pieces too wide: a patch with too few faces, or one no cut \
+                         parts into two disks, cannot be split further; a finer mesh may help)",
+                        retries + 1
+                    )));
+                }
+                for &(piece, ratio) in &pieces {
+                    let faces: Vec<FaceId> = seg
+                        .patch_of_face
+                        .enumerate()
+                        .filter(|&(_, &p)| p == piece)
+                        .map(|(g, _)| seg.face_parent[g])
+                        .collect();
+                    hints.push(SplitHint { faces, shrink: 0.95 / ratio.max(1.0) });
+                }
+                last_too_wide = pieces;
+                retries += 1;
+                progress.say(format!("{e}: laying the patches out again with those split (layout {})", retries + 1));
+            }
+            Err(e) => {
+                // What the layout was, for the user to look at.
+                stages::segmentation::write_outputs(&args.out, &input, &seg)?;
+                return Err(e);
+            }
+            Ok(p) => break (Some(seg), Some(p)),
+        }
     };
-
-    // Stage 4: flattening and patterns.
-    let patterns = match (&field, &segmentation) {
-        (Some(f), Some(seg)) if until >= Until::Patterns => {
-            let mut p = stages::patterns::run(&cfg, &input, f, seg, progress)?;
+    if let Some(seg) = &segmentation {
+        stages.segmentation = Some(StageTime { seconds: seg.stats.seconds });
+        stages::segmentation::write_outputs(&args.out, &input, seg)?;
+        written.extend(["segmentation.ply", "seams.obj"]);
+    }
+    let patterns = match (segmentation.as_ref(), patterns) {
+        (Some(seg), Some(mut p)) => {
             let t = std::time::Instant::now();
             let files = stages::patterns::write_outputs(&args.out, &input, seg, &p)?;
             p.summary.seconds += t.elapsed().as_secs_f64();
             p.summary.files = files;
+            p.summary.layout_retries = retries;
             stages.flattening = Some(StageTime { seconds: p.flat.report.seconds });
             stages.patterns = Some(StageTime { seconds: p.summary.seconds });
             Some(p)

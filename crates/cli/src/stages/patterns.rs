@@ -37,6 +37,8 @@ pub struct PatternsSummary {
     pub pieces_area_mm2: f64,
     /// The files written (relative to the output directory).
     pub files: Vec<String>,
+    /// Times the patches were laid out again, smaller, because a piece did not fit the roll.
+    pub layout_retries: usize,
     /// Seconds.
     pub seconds: f64,
 }
@@ -56,6 +58,25 @@ pub fn seam_label(id: usize) -> String {
     let letter = (b'A' + ((id / 99) % 26) as u8) as char;
     format!("{letter}{}", id % 99 + 1)
 }
+
+/// Pieces wider than the roll (the pattern stage's `PieceTooWide`, or found before it), with
+/// how much too wide: the `run` command lays the patches out again, those split, when it sees
+/// this.
+#[derive(Debug)]
+pub struct TooWide {
+    /// The message for the user.
+    pub message: String,
+    /// Each piece (patch id) too wide, with its width across the roll over the roll's (> 1).
+    pub pieces: Vec<(u32, f64)>,
+}
+
+impl std::fmt::Display for TooWide {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for TooWide {}
 
 /// Flatten, orient, build the patterns.
 pub fn run(
@@ -129,10 +150,46 @@ pub fn run(
         piece_gap_mm: cfg.pattern.piece_gap_mm,
         text_height_mm: cfg.pattern.text_height_mm,
     };
+    // Every piece too wide for the roll at once (the sew line's box grown by the allowance on
+    // both sides; the pattern stage checks the cut line itself, exactly, one piece at a time).
+    let too_wide: Vec<(u32, f64)> = pieces
+        .iter()
+        .filter_map(|pc| {
+            let (lo, hi) = pc.outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), q| {
+                ([lo[0].min(q[0]), lo[1].min(q[1])], [hi[0].max(q[0]), hi[1].max(q[1])])
+            });
+            let r = popts.seam_allowance_mm;
+            let (w, h) = (hi[0] - lo[0] + 2.0 * r, hi[1] - lo[1] + 2.0 * r);
+            let across = if popts.allow_weft_swap { w.min(h) } else { h };
+            (across > popts.fabric_width_mm).then_some((pc.id as u32, across / popts.fabric_width_mm))
+        })
+        .collect();
+    if let Some(&(first, _)) = too_wide.first() {
+        return Err(Failure::Input(anyhow::Error::new(TooWide {
+            message: format!(
+                "{} piece(s) wider than the {:.0} mm roll (the first: P{first}); set [pattern] fabric_width_mm wider or allow_weft_swap = true",
+                too_wide.len(),
+                popts.fabric_width_mm
+            ),
+            pieces: too_wide,
+        })));
+    }
     let pattern = build_pattern(&pieces, &popts).map_err(|e| {
         // A piece wider than the roll is the user's choice of roll; anything else is ours.
-        if matches!(e, clothcast_pattern::PatternError::PieceTooWide { .. }) {
-            Failure::Input(anyhow::anyhow!("{e}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"))
+        if let clothcast_pattern::PatternError::PieceTooWide {
+            piece,
+            width_mm,
+            height_mm,
+            fabric_width_mm,
+            weft_swap,
+            ..
+        } = e
+        {
+            let across = if weft_swap { width_mm.min(height_mm) } else { height_mm };
+            Failure::Input(anyhow::Error::new(TooWide {
+                message: format!("{e}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"),
+                pieces: vec![(piece as u32, across / fabric_width_mm)],
+            }))
         } else {
             Failure::Internal(anyhow::anyhow!("building the patterns: {e}"))
         }
@@ -147,6 +204,7 @@ pub fn run(
         utilisation: pattern.utilisation,
         pieces_area_mm2: pattern.stats.area_mm2_total,
         files: Vec::new(),
+        layout_retries: 0,
         seconds: t1.elapsed().as_secs_f64(),
     };
     progress.say(format!(

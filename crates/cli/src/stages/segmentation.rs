@@ -6,14 +6,22 @@ use crate::input::Input;
 use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
-use clothcast_layout::{LayoutOptions, Segmentation, segment};
+use clothcast_layout::{LayoutOptions, Segmentation, SplitHint, segment};
 use clothcast_mesh::Vec3;
 use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
 use std::io::Write;
 use std::path::Path;
 
-/// The library options from the scenario.
-pub fn options(cfg: &Config) -> LayoutOptions {
+/// How much longer than the roll's usable width a patch's extent may be before the layout
+/// splits it (a first guess, see [`options`]).
+const EXTENT_ALLOWANCE: f64 = 1.25;
+
+/// The most pieces a roll may take before its width is refused as too narrow.
+const MAX_PIECES: usize = 250;
+
+/// The library options from the scenario, with the patches to split further (`hints`, from
+/// earlier layouts whose pieces did not fit the roll).
+pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
     let l = &cfg.layout;
     LayoutOptions {
         drift_penalty: l.drift_penalty,
@@ -28,14 +36,42 @@ pub fn options(cfg: &Config) -> LayoutOptions {
         min_patch_fraction: l.min_patch_fraction,
         snap: l.snap,
         max_splits: l.max_splits,
+        // The layout's first guess at pieces that fit the roll with their seam allowance: a
+        // patch's extent (its longest path) bounds its piece's width across the roll from
+        // above, by more the less round it is; pieces that still do not fit once flattened are
+        // split in a new layout (the `run` command).
+        max_patch_extent: ((cfg.pattern.fabric_width_mm - 2.0 * cfg.pattern.seam_allowance_mm) / 1000.0
+            * EXTENT_ALLOWANCE)
+            .max(0.0),
+        split_hints: hints.to_vec(),
         seed: cfg.seed,
     }
 }
 
 /// Segment the target along the field.
-pub fn run(cfg: &Config, input: &Input, field: &FieldResult, progress: &Progress) -> Result<Segmentation, Failure> {
+pub fn run(
+    cfg: &Config,
+    input: &Input,
+    field: &FieldResult,
+    hints: &[SplitHint],
+    progress: &Progress,
+) -> Result<Segmentation, Failure> {
+    // A roll so narrow that the mold would take hundreds of pieces is a mistake in the scenario,
+    // not a layout to make (every piece at most about a disk as wide as the roll).
+    let (w, a) = (cfg.pattern.fabric_width_mm, cfg.pattern.seam_allowance_mm);
+    let usable = (w - 2.0 * a) / 1000.0;
+    let area = input.mesh.total_area();
+    let least = area / (std::f64::consts::FRAC_PI_4 * (EXTENT_ALLOWANCE * usable).powi(2));
+    if !(usable > 0.0) || least > MAX_PIECES as f64 {
+        return Err(Failure::Input(anyhow::anyhow!(
+            "the roll is too narrow for this mold: [pattern] fabric_width_mm = {w} mm less twice seam_allowance_mm \
+             = {a} mm leaves {:.0} mm, and the target's {area:.3} m² would take over {MAX_PIECES} pieces; set \
+             fabric_width_mm wider",
+            1000.0 * usable
+        )));
+    }
     let stage = progress.stage("segmenting into patches");
-    let seg = segment(&input.mesh, &field.field, &field.singularities, &options(cfg)).internal()?;
+    let seg = segment(&input.mesh, &field.field, &field.singularities, &options(cfg, hints)).internal()?;
     drop(stage);
     let s = &seg.stats;
     progress.say(format!(
