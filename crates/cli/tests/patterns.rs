@@ -121,8 +121,8 @@ fn run_on_fertility_writes_everything() {
 }
 
 /// bob_small (genus 1, 500 faces) at 0.5 m has a patch whose flattened outline looped over
-/// itself, and the pattern stage refused it (exit 1): its boundary curvature is now smoothed
-/// until the outline is simple, and every piece is cut.
+/// itself, and the pattern stage refused it (exit 1): the looping stretch of its boundary is
+/// now uncurled until the outline is simple, and every piece is cut.
 #[test]
 fn a_self_crossing_outline_is_repaired_and_cut() {
     let out = tmpdir("bob_small");

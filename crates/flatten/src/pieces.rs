@@ -495,10 +495,6 @@ fn seam_mismatch(runs: &[Vec<SeamRun>], n_seams: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Untangle flipped triangles of a flattening by local Tutte relaxation: the interior vertices of
-/// flipped faces (then their 1-ring, 2-ring, …) move to the mean of their neighbours, a few
-/// sweeps per round; boundary vertices join only when interior moves are not enough. Returns the
-/// number of vertices moved.
 /// One flattened piece ([`flatten_piece`]).
 #[derive(Clone, Debug)]
 pub struct PieceFlattening {
@@ -625,6 +621,10 @@ pub fn outline_crossing(uv: &VertexData<Vec2>, outline: &[VertexId]) -> Option<(
     clothcast_mesh::polygon::find_self_intersection(&poly)
 }
 
+/// Untangle flipped triangles of a flattening by local Tutte relaxation: the interior vertices of
+/// flipped faces (then their 1-ring, 2-ring, …) move to the mean of their neighbours, a few
+/// sweeps per round; boundary vertices join only when interior moves are not enough. Returns the
+/// number of vertices moved.
 fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
     let signed = |uv: &VertexData<Vec2>, f: FaceId| {
         let [a, b, c] = mesh.face_vertices(f).map(|v| uv[v]);

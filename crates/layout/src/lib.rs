@@ -32,5 +32,5 @@ pub mod trace;
 pub mod vertex_field;
 
 pub use error::LayoutError;
-pub use segment::{LayoutOptions, PatchInfo, Seam, Segmentation, SegmentationStats, SplitHint, segment};
+pub use segment::{LayoutOptions, PatchInfo, Seam, Segmentation, SegmentationStats, SplitHint, patch_extent, segment};
 pub use surface::SurfacePoint;

@@ -96,12 +96,12 @@ pub struct LayoutOptions {
     pub min_patch_fraction: f64,
     /// Remeshing snap distance (share of an edge).
     pub snap: f64,
-    /// Upper bound on developability splits (and, separately, on size splits).
+    /// Upper bound on developability splits (size splits have their own, 512 of each kind).
     pub max_splits: usize,
-    /// Largest patch extent (metres: the longest shortest path through the patch, a bound on
-    /// its flattened piece's width in any direction) before a patch is split, and that no merge
-    /// may exceed; the CLI sets it so that every piece fits the fabric roll with its seam
-    /// allowance. Infinite (the default): no limit.
+    /// Largest patch extent (metres, [`patch_extent`]: a long shortest path through the patch,
+    /// usually above its flattened piece's width in any direction) before a patch is split, and
+    /// that no merge may exceed; the CLI sets it from the fabric roll's width. Infinite (the
+    /// default): no limit.
     pub max_patch_extent: f64,
     /// Patches to split further (what a first layout left too wide for the roll).
     pub split_hints: Vec<SplitHint>,
@@ -131,15 +131,17 @@ impl Default for LayoutOptions {
     }
 }
 
-/// A patch of an earlier layout to split further: the input mesh's faces it held and the share
-/// of its extent each piece of it may keep. Patches are laid out the same way up to the
-/// splits (the same input and options), so the patch holding most of these faces is it.
+/// A patch of an earlier layout to split further: the input mesh's faces it held and the
+/// largest extent ([`patch_extent`]) its pieces may have. Patches are laid out the same way up
+/// to the splits (the same input and options), so a patch holding at least half of these
+/// faces, or made at least half of them, is (part of) it: it is split until within the
+/// extent, and no merge makes such a patch wider (the smallest extent where hints overlap).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SplitHint {
     /// Faces of the input mesh.
     pub faces: Vec<FaceId>,
-    /// Largest extent of its pieces, as a share of the patch's own (in (0, 1]).
-    pub shrink: f64,
+    /// Largest extent of the pieces (metres).
+    pub max_extent: f64,
 }
 
 /// One seam: a chain of mesh edges between two nodes, and the patches on its two sides.
@@ -255,17 +257,15 @@ struct Stage {
     singular: VertexData<bool>,
     /// Singularity index (quarter turns) of every vertex, 0 for regular ones.
     index: VertexData<i32>,
-    /// What no merge may exceed: the largest extent and the split hints' targets.
+    /// What no merge may exceed: the largest extent and the split hints' extents.
     limits: Limits,
 }
 
-/// The size limits of a layout ([`LayoutOptions::max_patch_extent`], [`SplitHint`]) and the
-/// hints' targets once known.
+/// The size limits of a layout ([`LayoutOptions::max_patch_extent`], [`SplitHint`]).
 #[derive(Clone, Debug)]
 struct Limits {
     max_extent: f64,
     hints: Vec<SplitHint>,
-    targets: Vec<f64>,
     input_faces: usize,
 }
 
@@ -318,17 +318,12 @@ pub fn segment(
     let (cuts, _) = make_disks(mesh, &dirs, &mut seam, opts.drift_penalty, phi_max)?;
     stats.extra_cuts = cuts.len() + attached;
 
-    let limits = Limits {
-        max_extent: opts.max_patch_extent,
-        hints: opts.split_hints.clone(),
-        targets: vec![f64::NAN; opts.split_hints.len()],
-        input_faces: mesh.n_faces(),
-    };
+    let limits =
+        Limits { max_extent: opts.max_patch_extent, hints: opts.split_hints.clone(), input_faces: mesh.n_faces() };
     let mut stage = Stage { mesh: mesh.clone(), face_parent: mesh.face_ids().collect(), seam, singular, index, limits };
 
     // 3.–5. Merge, split, tiny patches, on the traced (jagged) seams: corners are measured
     // between chords a few edges long, as the straightened seams will run.
-    let hint_targets: Vec<f64>;
     let (seam, merges, splits, tiny_merges) = {
         let scores = vertex_scores(&stage.mesh);
         let mut state =
@@ -337,15 +332,13 @@ pub fn segment(
         let merges = if opts.merge { state.merge_quads(opts.max_developability, false) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
         let size_splits = state.split_oversized(opts.max_patch_extent, MAX_SIZE_SPLITS, &vf, &trace_opts)?
-            + state.split_hinted(&opts.split_hints, MAX_SIZE_SPLITS, &vf, &trace_opts)?;
+            + state.split_hinted(MAX_SIZE_SPLITS, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
         let to_quads = state.split_to_quads(&vf, &trace_opts, opts.max_splits);
         let tiny = state.merge_tiny(opts.min_patch_fraction * mesh.total_area(), &dirs, opts.drift_penalty, phi_max);
-        hint_targets = state.hints.as_ref().map(|m| m.targets.clone()).unwrap_or_default();
         (state.seam, merges, (splits + concave + to_quads, size_splits), tiny)
     };
     stage.seam = seam;
-    stage.limits.targets = hint_targets;
     stats.merges = merges + tiny_merges;
     (stats.splits, stats.size_splits) = splits;
 
@@ -958,6 +951,8 @@ struct State<'a> {
     mean_edge: f64,
     /// No merge may make a patch wider than this ([`LayoutOptions::max_patch_extent`]).
     max_extent: f64,
+    /// [`patch_extent`] of each patch, once computed (forgotten when its faces change).
+    extents: std::cell::RefCell<Vec<Option<f64>>>,
     /// Split hints: no merge may make a hinted patch wider than its target.
     hints: Option<HintMap>,
 }
@@ -1004,7 +999,23 @@ impl<'a> State<'a> {
             degree: network::seam_degree(mesh, seam),
             mean_edge: mesh.mean_edge_length(),
             max_extent: f64::INFINITY,
+            extents: Default::default(),
             hints: None,
+        }
+    }
+
+    /// [`patch_extent`] of patch `p` (cached).
+    fn extent(&self, p: u32) -> f64 {
+        let mut cache = self.extents.borrow_mut();
+        if cache.len() <= p as usize {
+            cache.resize(p as usize + 1, None);
+        }
+        *cache[p as usize].get_or_insert_with(|| patch_extent(self.mesh, &self.faces[p as usize]))
+    }
+
+    fn forget_extent(&self, p: u32) {
+        if let Some(e) = self.extents.borrow_mut().get_mut(p as usize) {
+            *e = None;
         }
     }
 
@@ -1012,7 +1023,7 @@ impl<'a> State<'a> {
     fn limit(&mut self, stage: &Stage) {
         let l = &stage.limits;
         self.max_extent = l.max_extent;
-        self.hints = HintMap::new(&l.hints, &stage.face_parent, l.input_faces, l.targets.clone());
+        self.hints = HintMap::new(&l.hints, &stage.face_parent, l.input_faces);
     }
 
     /// Seam edges grouped by the (sorted) pair of labels on their sides.
@@ -1065,14 +1076,20 @@ impl<'a> State<'a> {
         let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
         let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
         let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
-        if self.max_extent.is_finite() && region_extent(self.mesh, &union) > self.max_extent {
-            return None;
-        }
-        if let Some(t) = self.hints.as_ref().and_then(|m| m.majority(&union).map(|h| m.targets[h]))
-            && t.is_finite()
-            && region_extent(self.mesh, &union) > t
-        {
-            return None;
+        let limit = self.hints.as_ref().and_then(|m| m.target(&union)).unwrap_or(f64::INFINITY).min(self.max_extent);
+        // Within the limit without a search when the two extents add up to it (a path between
+        // the two runs through a shared vertex); a slit's removal keeps the patch's faces.
+        if limit.is_finite() {
+            let extent = if a == b {
+                self.extent(a)
+            } else if self.extent(a) + self.extent(b) <= limit {
+                0.0
+            } else {
+                patch_extent(self.mesh, &union)
+            };
+            if extent > limit {
+                return None;
+            }
         }
         let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
         let score = region_score(self.mesh, &union, &label, &seam, self.scores);
@@ -1091,8 +1108,10 @@ impl<'a> State<'a> {
                 self.label[f] = a;
             }
             self.faces[b as usize].clear();
+            self.forget_extent(b);
         }
         self.faces[a as usize] = union;
+        self.forget_extent(a);
     }
 
     /// Dangling seam edges inside patch `a`: seam edges with the same patch on both sides
@@ -1565,6 +1584,8 @@ impl<'a> State<'a> {
         self.faces[p as usize].retain(|f| spike.binary_search(f).is_err());
         self.faces[to as usize].extend_from_slice(spike);
         self.faces[to as usize].sort_unstable();
+        self.forget_extent(p);
+        self.forget_extent(to);
     }
 
     /// Topology and corners of patch `p` under the current labels and seams.
@@ -1720,6 +1741,7 @@ impl<'a> State<'a> {
         }
         self.faces[p as usize] = a;
         self.faces.push(b);
+        self.forget_extent(p);
     }
 
     /// Merge patches smaller than `min_area` into their neighbours; returns the merges.
@@ -1815,7 +1837,7 @@ impl<'a> State<'a> {
         })
     }
 
-    /// Split patches wider than `max_extent` ([`region_extent`]), widest first, so that every
+    /// Split patches wider than `max_extent` ([`patch_extent`]), widest first, so that every
     /// piece fits the fabric roll; returns the splits.
     fn split_oversized(
         &mut self,
@@ -1827,35 +1849,25 @@ impl<'a> State<'a> {
         if !max_extent.is_finite() {
             return Ok(0);
         }
-        self.split_worst(max_extent, max_splits, vf, trace, |state, p| {
-            region_extent(state.mesh, &state.faces[p as usize])
-        })
+        self.split_worst(max_extent, max_splits, vf, trace, |state, p| state.extent(p))
     }
 
-    /// Split the patches that hold most of a hint's faces ([`HintMap`]) until each is within
-    /// its hint's target: the extent of the patch that held it when first seen here, times the
-    /// hint's shrink; returns the splits.
+    /// Split the patches a hint applies to ([`SplitHint`]) until each is within its extent;
+    /// returns the splits.
     fn split_hinted(
         &mut self,
-        hints: &[SplitHint],
         max_splits: usize,
         vf: &VertexField,
         trace: &TraceOptions,
     ) -> Result<usize, LayoutError> {
-        let Some(mut map) = self.hints.take() else { return Ok(0) };
-        for fs in &self.faces {
-            if let Some(h) = map.majority(fs)
-                && map.targets[h].is_nan()
-            {
-                map.targets[h] = region_extent(self.mesh, fs) * hints[h].shrink.clamp(0.05, 1.0);
-            }
+        if self.hints.is_none() {
+            return Ok(0);
         }
-        self.hints = Some(map);
         self.split_worst(0.0, max_splits, vf, trace, |state, p| {
             let fs = &state.faces[p as usize];
-            match state.hints.as_ref().and_then(|m| m.majority(fs).map(|h| m.targets[h])) {
-                Some(t) if t.is_finite() => region_extent(state.mesh, fs) / t - 1.0,
-                _ => f64::NEG_INFINITY,
+            match state.hints.as_ref().and_then(|m| m.target(fs)) {
+                Some(t) => state.extent(p) / t.max(f64::MIN_POSITIVE) - 1.0,
+                None => f64::NEG_INFINITY,
             }
         })
     }
@@ -1913,87 +1925,125 @@ impl<'a> State<'a> {
     }
 }
 
-/// The split hints on a state's mesh: each face's hint (through its input face), and each
-/// hint's target extent (NaN until the patch holding it is first seen).
+/// The split hints on a state's mesh: each face's hint (through its input face; the one with
+/// the smallest extent where hints overlap) and each hint's face count here.
 #[derive(Clone, Debug)]
 struct HintMap {
     of_face: FaceData<u32>,
-    targets: Vec<f64>,
+    sizes: Vec<usize>,
+    extents: Vec<f64>,
 }
 
 impl HintMap {
     /// `parent`: the input face of each of the mesh's faces.
-    fn new(hints: &[SplitHint], parent: &FaceData<FaceId>, input_faces: usize, targets: Vec<f64>) -> Option<Self> {
+    fn new(hints: &[SplitHint], parent: &FaceData<FaceId>, input_faces: usize) -> Option<Self> {
         if hints.is_empty() {
             return None;
         }
         let mut of_input = vec![u32::MAX; input_faces];
         for (i, h) in hints.iter().enumerate() {
             for &f in &h.faces {
-                if f.idx() < input_faces {
-                    of_input[f.idx()] = i as u32;
+                let slot = of_input.get_mut(f.idx());
+                if let Some(slot) = slot
+                    && (*slot == u32::MAX || h.max_extent < hints[*slot as usize].max_extent)
+                {
+                    *slot = i as u32;
                 }
             }
         }
-        Some(Self { of_face: parent.map(|&f| of_input[f.idx()]), targets })
+        let of_face: FaceData<u32> = parent.map(|&f| of_input[f.idx()]);
+        let mut sizes = vec![0; hints.len()];
+        for &h in of_face.iter() {
+            if h != u32::MAX {
+                sizes[h as usize] += 1;
+            }
+        }
+        Some(Self { of_face, sizes, extents: hints.iter().map(|h| h.max_extent).collect() })
     }
 
-    /// The hint holding most of these faces, if it holds at least half of them.
-    fn majority(&self, faces: &[FaceId]) -> Option<usize> {
+    /// The extent these faces must keep within: the smallest of the hints of which they hold at
+    /// least half, or which make at least half of them.
+    fn target(&self, faces: &[FaceId]) -> Option<f64> {
         let mut count: BTreeMap<u32, usize> = BTreeMap::new();
         for &f in faces {
             if self.of_face[f] != u32::MAX {
                 *count.entry(self.of_face[f]).or_default() += 1;
             }
         }
-        let (&h, &n) = count.iter().max_by_key(|&(&h, &n)| (n, std::cmp::Reverse(h)))?;
-        (2 * n >= faces.len()).then_some(h as usize)
+        count
+            .iter()
+            .filter(|&(&h, &n)| 2 * n >= faces.len() || 2 * n >= self.sizes[h as usize])
+            .map(|(&h, _)| self.extents[h as usize])
+            .reduce(f64::min)
     }
 }
 
 /// Upper bound on size splits ([`LayoutOptions::max_patch_extent`], [`SplitHint`]), each kind.
 const MAX_SIZE_SPLITS: usize = 512;
 
-/// The extent of a region: the longest shortest path along its edges between two of its
-/// vertices, found by a double sweep (Dijkstra from a vertex, then from the farthest one).
-/// Edge paths run a little longer than straight lines, so this bounds the flattened piece's
-/// width in every direction from above, up to the flattening's own stretch.
-fn region_extent(mesh: &Mesh, faces: &[FaceId]) -> f64 {
+/// The extent of a region: the length of a long shortest path along its edges, from the vertex
+/// farthest from its first vertex to the vertex farthest from that (a double sweep of Dijkstra:
+/// the longest shortest path on a tree, a close lower bound of it on a surface patch).
+/// Edge paths run a little longer than straight lines; a piece's flattened width is usually
+/// below it, but not always (the flattening stretches, and the sweep is a lower bound), which
+/// is why the CLI checks the flattened pieces too.
+pub fn patch_extent(mesh: &Mesh, faces: &[FaceId]) -> f64 {
     use clothcast_mesh::util::MinCost;
     use std::collections::BinaryHeap;
-    let mut inside = BTreeSet::new();
-    for &f in faces {
-        inside.extend(mesh.face_vertices(f));
+    // The patch's vertices, numbered locally, and its edges (each face's three, both ways; an
+    // edge shared by two faces appears twice, which Dijkstra does not mind).
+    let mut verts: Vec<VertexId> = faces.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
+    verts.sort_unstable();
+    verts.dedup();
+    if verts.is_empty() {
+        return 0.0;
     }
-    let Some(&start) = inside.first() else { return 0.0 };
-    let sweep = |from: VertexId| -> (VertexId, f64) {
-        let mut dist: BTreeMap<VertexId, f64> = BTreeMap::new();
+    let local = |v: VertexId| verts.binary_search(&v).expect("a vertex of the patch");
+    let mut arcs: Vec<(usize, usize, f64)> = Vec::with_capacity(6 * faces.len());
+    for &f in faces {
+        let vs = mesh.face_vertices(f);
+        for k in 0..3 {
+            let (u, w) = (vs[k], vs[(k + 1) % 3]);
+            let len = (mesh.position(w) - mesh.position(u)).norm();
+            let (i, j) = (local(u), local(w));
+            arcs.push((i, j, len));
+            arcs.push((j, i, len));
+        }
+    }
+    arcs.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)));
+    let n = verts.len();
+    let mut start = vec![0usize; n + 1];
+    for &(i, _, _) in &arcs {
+        start[i + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let sweep = |from: usize| -> (usize, f64) {
+        let mut dist = vec![f64::INFINITY; n];
         let mut heap = BinaryHeap::new();
-        dist.insert(from, 0.0);
-        heap.push(MinCost(0.0, from.idx() as u32));
+        dist[from] = 0.0;
+        heap.push(MinCost(0.0, from as u32));
         let mut far = (from, 0.0);
-        while let Some(item) = heap.pop() {
-            let (d, v) = (item.0, VertexId::new(item.1 as usize));
-            if d > dist[&v] {
+        while let Some(MinCost(d, v)) = heap.pop() {
+            let v = v as usize;
+            if d > dist[v] {
                 continue;
             }
             if d > far.1 {
                 far = (v, d);
             }
-            for w in mesh.vertex_neighbors(v) {
-                if !inside.contains(&w) {
-                    continue;
-                }
-                let nd = d + (mesh.position(w) - mesh.position(v)).norm();
-                if dist.get(&w).is_none_or(|&old| nd < old) {
-                    dist.insert(w, nd);
-                    heap.push(MinCost(nd, w.idx() as u32));
+            for &(_, w, len) in &arcs[start[v]..start[v + 1]] {
+                let nd = d + len;
+                if nd < dist[w] {
+                    dist[w] = nd;
+                    heap.push(MinCost(nd, w as u32));
                 }
             }
         }
         far
     };
-    let (far, _) = sweep(start);
+    let (far, _) = sweep(0);
     sweep(far).1
 }
 

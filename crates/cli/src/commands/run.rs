@@ -9,7 +9,7 @@ use crate::progress::Progress;
 use crate::stages;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
-use clothcast_layout::SplitHint;
+use clothcast_layout::{SplitHint, patch_extent};
 use clothcast_mesh::FaceId;
 use clothcast_mesh::io::write_atomic;
 use std::time::Instant;
@@ -91,14 +91,19 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     let mut hints: Vec<SplitHint> = Vec::new();
     let mut retries = 0;
     let mut last_too_wide: Vec<(u32, f64)> = Vec::new();
+    // Time of every layout made, and of the flattening and patterns of the ones redone.
+    let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
         let Some(f) = field.as_ref().filter(|_| until >= Until::Segmentation) else { break (None, None) };
         let seg = stages::segmentation::run(&cfg, &input, f, &hints, progress)?;
+        layout_seconds += seg.stats.seconds;
         if until < Until::Patterns {
             break (Some(seg), None);
         }
+        let attempt = Instant::now();
         match stages::patterns::run(&cfg, &input, f, &seg, progress) {
             Err(Failure::Input(e)) if e.downcast_ref::<stages::patterns::TooWide>().is_some() => {
+                redone_seconds += attempt.elapsed().as_secs_f64();
                 let pieces =
                     e.downcast_ref::<stages::patterns::TooWide>().map(|t| t.pieces.clone()).unwrap_or_default();
                 // The same pieces as last time: the layout could not split them (too few faces,
@@ -112,13 +117,13 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                     )));
                 }
                 for &(piece, ratio) in &pieces {
-                    let faces: Vec<FaceId> = seg
-                        .patch_of_face
-                        .enumerate()
-                        .filter(|&(_, &p)| p == piece)
-                        .map(|(g, _)| seg.face_parent[g])
-                        .collect();
-                    hints.push(SplitHint { faces, shrink: 0.95 / ratio.max(1.0) });
+                    // Its pieces' extent: the patch's own, scaled as its flattened width is
+                    // too wide, with 5% to spare.
+                    let own: Vec<FaceId> =
+                        seg.patch_of_face.enumerate().filter(|&(_, &p)| p == piece).map(|(g, _)| g).collect();
+                    let max_extent = patch_extent(&seg.mesh, &own) * 0.95 / ratio.max(1.0);
+                    let faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
+                    hints.push(SplitHint { faces, max_extent });
                 }
                 last_too_wide = pieces;
                 retries += 1;
@@ -133,7 +138,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         }
     };
     if let Some(seg) = &segmentation {
-        stages.segmentation = Some(StageTime { seconds: seg.stats.seconds });
+        stages.segmentation = Some(StageTime { seconds: layout_seconds });
         stages::segmentation::write_outputs(&args.out, &input, seg)?;
         written.extend(["segmentation.ply", "seams.obj"]);
     }
@@ -144,7 +149,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
             p.summary.seconds += t.elapsed().as_secs_f64();
             p.summary.files = files;
             p.summary.layout_retries = retries;
-            stages.flattening = Some(StageTime { seconds: p.flat.report.seconds });
+            stages.flattening = Some(StageTime { seconds: p.flat.report.seconds + redone_seconds });
             stages.patterns = Some(StageTime { seconds: p.summary.seconds });
             Some(p)
         }
