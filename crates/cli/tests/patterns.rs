@@ -5,7 +5,22 @@ mod common;
 use common::*;
 
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// `clothcast run MESH --height H` into a fresh directory, which it returns; it must succeed.
+fn run_scaled(tag: &str, mesh: &str, height: &str) -> PathBuf {
+    let out = tmpdir(tag);
+    let o = run(&["run", data(mesh).to_str().unwrap(), "--height", height, "-q", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    out
+}
+
+/// The pieces cut in `pattern.svg` (the `data-piece` paths of its `cut` group).
+fn cut_pieces(out: &Path) -> usize {
+    let svg = std::fs::read_to_string(out.join("patterns/pattern.svg")).unwrap();
+    let cut = svg.split("<g id=\"cut\"").nth(1).unwrap().split("</g>").next().unwrap();
+    cut.matches("data-piece=").count()
+}
 
 /// Every file present and consistent; returns the summary.
 fn check_run(out: &Path) -> Value {
@@ -24,7 +39,7 @@ fn check_run(out: &Path) -> Value {
         let p = out.join(f);
         assert!(p.is_file() && std::fs::metadata(&p).unwrap().len() > 0, "{f} missing");
     }
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let s = summary(out);
     let fl = &s["flattening"];
     for k in [
         "flipped_triangles",
@@ -72,9 +87,7 @@ fn check_run(out: &Path) -> Value {
     assert!(util > 0.2 && util <= 1.0);
 
     // SVG: one cut path per piece.
-    let svg = std::fs::read_to_string(out.join("patterns/pattern.svg")).unwrap();
-    let cut = svg.split("<g id=\"cut\"").nth(1).unwrap().split("</g>").next().unwrap();
-    assert_eq!(cut.matches("data-piece=").count(), pieces);
+    assert_eq!(cut_pieces(out), pieces);
     // PDF: one page per piece.
     let pdf = std::fs::read(out.join("patterns/pattern.pdf")).unwrap();
     assert!(pdf.starts_with(b"%PDF"));
@@ -105,17 +118,7 @@ fn run_on_the_example_writes_everything() {
 
 #[test]
 fn run_on_fertility_writes_everything() {
-    let out = tmpdir("fertility");
-    let o = run(&[
-        "run",
-        data("closed/fertility.off").to_str().unwrap(),
-        "--height",
-        "0.5",
-        "-q",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = run_scaled("fertility", "closed/fertility.off", "0.5");
     let s = check_run(&out);
     assert_eq!(s["input"]["genus"], 4);
 }
@@ -125,45 +128,23 @@ fn run_on_fertility_writes_everything() {
 /// now uncurled until the outline is simple, and every piece is cut.
 #[test]
 fn a_self_crossing_outline_is_repaired_and_cut() {
-    let out = tmpdir("bob_small");
-    let o = run(&[
-        "run",
-        data("closed/bob_small.ply").to_str().unwrap(),
-        "--height",
-        "0.5",
-        "-q",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let out = run_scaled("bob_small", "closed/bob_small.ply", "0.5");
+    let s = summary(&out);
     let fl = &s["flattening"];
     assert_eq!(fl["outlines_not_simple"], 0);
     assert_eq!(fl["flipped_triangles"], 0);
     assert!(fl["outlines_repaired"].as_u64().unwrap() >= 1, "{fl}");
     assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() < 0.1, "{fl}");
     assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
-    let svg = std::fs::read_to_string(out.join("patterns/pattern.svg")).unwrap();
-    let cut = svg.split("<g id=\"cut\"").nth(1).unwrap().split("</g>").next().unwrap();
-    assert_eq!(cut.matches("data-piece=").count() as u64, s["patterns"]["pieces"].as_u64().unwrap());
+    assert_eq!(cut_pieces(&out) as u64, s["patterns"]["pieces"].as_u64().unwrap());
 }
 
 /// A 2 m sphere does not fit a 1.5 m roll in the default layout's pieces (it used to stop with
 /// exit 2 asking for a wider roll): its patches are split until every piece fits.
 #[test]
 fn pieces_are_split_to_fit_the_roll() {
-    let out = tmpdir("sphere2m");
-    let o = run(&[
-        "run",
-        data("closed/sphere.obj").to_str().unwrap(),
-        "--height",
-        "2.0",
-        "-q",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let out = run_scaled("sphere2m", "closed/sphere.obj", "2.0");
+    let s = summary(&out);
     let (seg, pt) = (&s["segmentation"], &s["patterns"]);
     assert!(seg["size_splits"].as_u64().unwrap() + pt["layout_retries"].as_u64().unwrap() > 0, "{seg} {pt}");
     assert_eq!(pt["fabric_width_mm"], 1500.0);

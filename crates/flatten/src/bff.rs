@@ -279,13 +279,13 @@ fn factor_interior(b: &Blocks, max_reg: f64) -> Result<(CholeskyFactor, f64), Fl
 }
 
 /// The boundary curvature `kt` (per loop vertex; edge j of length `lengths[j]` joins vertices
-/// j and j + 1) with its density diffused along the loop for a time `t` (length²): solves
+/// j and j + 1, `dual` the vertices' dual lengths) with its density diffused along the loop for
+/// a time `t` (length²): solves
 /// `(D + t L) κ' = k̃` (D the dual lengths, L the loop Laplacian with weights 1/ℓ) and returns
 /// D κ'. Since 1ᵀL = 0 the total curvature is unchanged; as t → ∞ the density becomes uniform
 /// (a circle).
-fn smooth_boundary_curvature(kt: &[f64], lengths: &[f64], t: f64) -> Result<Vec<f64>, FlattenError> {
+fn smooth_boundary_curvature(kt: &[f64], lengths: &[f64], dual: &[f64], t: f64) -> Result<Vec<f64>, FlattenError> {
     let nb = kt.len();
-    let dual: Vec<f64> = (0..nb).map(|j| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb])).collect();
     let next = |j: usize| (j + 1) % nb;
     let entries = (0..nb).flat_map(|j| [(j, j), (j.max(next(j)), j.min(next(j)))]);
     let pattern = SymmetricPattern::from_entries(nb, entries);
@@ -301,7 +301,7 @@ fn smooth_boundary_curvature(kt: &[f64], lengths: &[f64], t: f64) -> Result<Vec<
     let factor = CholeskySolver::new(&pattern)?.factor(&pattern, &values)?;
     let mut density = kt.to_vec();
     factor.solve_in_place(&mut density);
-    let smoothed: Vec<f64> = density.iter().zip(&dual).map(|(k, d)| k * d).collect();
+    let smoothed: Vec<f64> = density.iter().zip(dual).map(|(k, d)| k * d).collect();
     check_finite(&smoothed, "the smoothed boundary curvature")?;
     Ok(smoothed)
 }
@@ -363,10 +363,11 @@ pub fn bff_flatten(mesh: &Mesh, options: &BffOptions) -> Result<Flattening, Flat
     check_finite(&kt, "the target boundary curvature")?;
     // Curvature closing: Σ k̃ = 2π exactly (Gauss–Bonnet), residual spread by dual length.
     let total_len: f64 = lengths.iter().sum();
+    // Each boundary vertex's dual length: half of its two boundary edges.
+    let dual: Vec<f64> = (0..nb).map(|j| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb])).collect();
     let residual = 2.0 * PI - kt.iter().sum::<f64>();
     for j in 0..nb {
-        let dual = 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb]);
-        kt[j] += residual * dual / total_len;
+        kt[j] += residual * dual[j] / total_len;
     }
     tracing::debug!(residual, "BFF: curvature closing residual");
     if let Some(r) = options.boundary_relief
@@ -375,18 +376,17 @@ pub fn bff_flatten(mesh: &Mesh, options: &BffOptions) -> Result<Flattening, Flat
     {
         let in_stretch =
             |j: usize| if r.first <= r.last { (r.first..=r.last).contains(&j) } else { j >= r.first || j <= r.last };
-        let dual = |j: usize| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb]);
         let f = r.fraction.clamp(0.0, 1.0);
         let removed: f64 = (0..nb).filter(|&j| in_stretch(j)).map(|j| f * kt[j]).sum();
-        let rest: f64 = (0..nb).filter(|&j| !in_stretch(j)).map(dual).sum();
+        let rest: f64 = (0..nb).filter(|&j| !in_stretch(j)).map(|j| dual[j]).sum();
         if rest > 0.0 {
             for j in 0..nb {
-                kt[j] = if in_stretch(j) { (1.0 - f) * kt[j] } else { kt[j] + removed * dual(j) / rest };
+                kt[j] = if in_stretch(j) { (1.0 - f) * kt[j] } else { kt[j] + removed * dual[j] / rest };
             }
         }
     }
     if options.boundary_smoothing > 0.0 {
-        kt = smooth_boundary_curvature(&kt, &lengths, options.boundary_smoothing * total_len * total_len)?;
+        kt = smooth_boundary_curvature(&kt, &lengths, &dual, options.boundary_smoothing * total_len * total_len)?;
     }
 
     // Eq. 3: tangents, closed lengths, boundary curve.

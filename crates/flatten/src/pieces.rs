@@ -548,10 +548,7 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
         {
             flat = f2;
         }
-        if flat.stats.flipped_triangles > 0 {
-            repaired_vertices += untangle(pm, &mut flat.uv);
-            flat.stats = distortion(pm, &flat.uv);
-        }
+        repaired_vertices += untangle_flattening(pm, &mut flat);
     }
     let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
     let mut outline_repair = None;
@@ -561,11 +558,7 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
         // triangles (after untangling).
         let try_with = |o: &BffOptions| -> Option<(Flattening, usize)> {
             let mut f2 = bff_flatten(pm, o).ok()?;
-            let mut moved = 0;
-            if f2.stats.flipped_triangles > 0 {
-                moved = untangle(pm, &mut f2.uv);
-                f2.stats = distortion(pm, &f2.uv);
-            }
+            let moved = untangle_flattening(pm, &mut f2);
             (f2.stats.flipped_triangles <= flat.stats.flipped_triangles && outline_crossing(&f2.uv, &outline).is_none())
                 .then_some((f2, moved))
         };
@@ -604,6 +597,17 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
     }
     let outline_simple = crossing.is_none() || outline_repair.is_some();
     Ok(PieceFlattening { flattening: flat, outline, retried, repaired_vertices, outline_repair, outline_simple })
+}
+
+/// [`untangle`] a flattening that has flipped triangles, its statistics updated; returns the
+/// vertices moved (0 when nothing was flipped).
+fn untangle_flattening(pm: &Mesh, flat: &mut Flattening) -> usize {
+    if flat.stats.flipped_triangles == 0 {
+        return 0;
+    }
+    let moved = untangle(pm, &mut flat.uv);
+    flat.stats = distortion(pm, &flat.uv);
+    moved
 }
 
 /// Fractions of a looping stretch's turning taken off, in order ([`BffOptions::boundary_relief`]).

@@ -331,7 +331,7 @@ pub fn segment(
         state.limit(&stage);
         let merges = if opts.merge { state.merge_quads(opts.max_developability, false) } else { 0 };
         let splits = state.split_non_developable(opts.max_developability, opts.max_splits, &vf, &trace_opts)?;
-        let size_splits = state.split_oversized(opts.max_patch_extent, MAX_SIZE_SPLITS, &vf, &trace_opts)?
+        let size_splits = state.split_oversized(MAX_SIZE_SPLITS, &vf, &trace_opts)?
             + state.split_hinted(MAX_SIZE_SPLITS, &vf, &trace_opts)?;
         let concave = state.split_concave(&vf, &trace_opts, opts.max_splits);
         let to_quads = state.split_to_quads(&vf, &trace_opts, opts.max_splits);
@@ -1837,19 +1837,18 @@ impl<'a> State<'a> {
         })
     }
 
-    /// Split patches wider than `max_extent` ([`patch_extent`]), widest first, so that every
-    /// piece fits the fabric roll; returns the splits.
+    /// Split patches wider than the state's `max_extent` ([`patch_extent`]), widest first, so
+    /// that every piece fits the fabric roll; returns the splits.
     fn split_oversized(
         &mut self,
-        max_extent: f64,
         max_splits: usize,
         vf: &VertexField,
         trace: &TraceOptions,
     ) -> Result<usize, LayoutError> {
-        if !max_extent.is_finite() {
+        if !self.max_extent.is_finite() {
             return Ok(0);
         }
-        self.split_worst(max_extent, max_splits, vf, trace, |state, p| state.extent(p))
+        self.split_worst(self.max_extent, max_splits, vf, trace, |state, p| state.extent(p))
     }
 
     /// Split the patches a hint applies to ([`SplitHint`]) until each is within its extent;
@@ -1990,8 +1989,7 @@ const MAX_SIZE_SPLITS: usize = 512;
 pub fn patch_extent(mesh: &Mesh, faces: &[FaceId]) -> f64 {
     use clothcast_mesh::util::MinCost;
     use std::collections::BinaryHeap;
-    // The patch's vertices, numbered locally, and its edges (each face's three, both ways; an
-    // edge shared by two faces appears twice, which Dijkstra does not mind).
+    // The patch's vertices, numbered locally, and its edges (each face's three, both ways).
     let mut verts: Vec<VertexId> = faces.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
     verts.sort_unstable();
     verts.dedup();
@@ -2010,7 +2008,9 @@ pub fn patch_extent(mesh: &Mesh, faces: &[FaceId]) -> f64 {
             arcs.push((j, i, len));
         }
     }
+    // An inner edge comes from both its faces: once per direction is enough.
     arcs.sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)));
+    arcs.dedup_by_key(|a| (a.0, a.1));
     let n = verts.len();
     let mut start = vec![0usize; n + 1];
     for &(i, _, _) in &arcs {

@@ -182,6 +182,9 @@ pub enum PatternError {
         fabric_width_mm: f64,
         /// Whether quarter turns were allowed.
         weft_swap: bool,
+        /// Every piece too wide, this one first: its id and its cut line's width across the
+        /// roll (the narrower side with quarter turns) over the roll's width.
+        too_wide: Vec<(usize, f64)>,
     },
     /// The seam allowance could not be computed (the polygon union returned nothing); not
     /// expected for validated input.

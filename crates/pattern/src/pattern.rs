@@ -174,23 +174,38 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
     let r = opts.seam_allowance_mm;
     let th = opts.text_height_mm;
 
+    // Every piece's cut line; the pieces too wide for the roll are all reported at once (the
+    // first in the error, all of them in its list), so that a caller can split them together.
     let mut cuts = Vec::with_capacity(pieces.len());
+    let mut too_wide: Vec<(usize, f64)> = Vec::new();
+    let mut first_too_wide: Option<(&PieceInput, f64, f64)> = None;
+    let width = opts.fabric_width_mm;
     for p in pieces {
-        let cut = offset_polygon(&p.outline, r).ok_or(PatternError::OffsetFailed { piece: p.id })?;
+        let Some(cut) = offset_polygon(&p.outline, r) else {
+            if first_too_wide.is_some() {
+                break;
+            }
+            return Err(PatternError::OffsetFailed { piece: p.id });
+        };
         let b = BBox::of(&cut);
         let (w, h) = (b.width(), b.height());
-        let width = opts.fabric_width_mm;
         if h > width && (!opts.allow_weft_swap || w > width) {
-            return Err(PatternError::PieceTooWide {
-                piece: p.id,
-                name: p.name.clone(),
-                width_mm: w,
-                height_mm: h,
-                fabric_width_mm: width,
-                weft_swap: opts.allow_weft_swap,
-            });
+            let across = if opts.allow_weft_swap { w.min(h) } else { h };
+            too_wide.push((p.id, across / width));
+            first_too_wide.get_or_insert((p, w, h));
         }
         cuts.push(cut);
+    }
+    if let Some((p, w, h)) = first_too_wide {
+        return Err(PatternError::PieceTooWide {
+            piece: p.id,
+            name: p.name.clone(),
+            width_mm: w,
+            height_mm: h,
+            fabric_width_mm: width,
+            weft_swap: opts.allow_weft_swap,
+            too_wide,
+        });
     }
 
     // Notches, seam by seam so that both sides share the parameters.

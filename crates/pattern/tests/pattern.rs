@@ -197,6 +197,23 @@ fn weft_swap_turns_a_piece_too_tall_for_the_roll() {
     assert_eq!(p.to_roll([1.0, 0.0]), [p.placement.offset[0], p.placement.offset[1] + 1.0]);
     let wide = common::rect_piece(4, 1600.0, 1600.0);
     assert!(matches!(build_pattern(&[wide], &opts), Err(PatternError::PieceTooWide { piece: 4, weft_swap: true, .. })));
+    // Every piece too wide is listed, the first in the error first, with its width over the roll's.
+    let opts = PatternOptions::default();
+    let pieces = [
+        common::rect_piece(5, 300.0, 1600.0),
+        common::rect_piece(6, 300.0, 300.0),
+        common::rect_piece(7, 300.0, 2000.0),
+    ];
+    match build_pattern(&pieces, &opts) {
+        Err(PatternError::PieceTooWide { piece: 5, too_wide, .. }) => {
+            assert_eq!(too_wide.iter().map(|t| t.0).collect::<Vec<_>>(), [5, 7]);
+            assert!(
+                (too_wide[0].1 - 1630.0 / 1500.0).abs() < 1e-9 && (too_wide[1].1 - 2030.0 / 1500.0).abs() < 1e-9,
+                "{too_wide:?}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 fn sq(id: usize) -> PieceInput {

@@ -267,14 +267,11 @@ pub fn solve(
     let ordering = sys.dof_ordering(opts.split_factorization)?;
     tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, nested = ordering.nested, "vertex-graph factor sizes");
     let mut split = None;
-    // Two threads for the factorization and the solves when the factor is large enough to
-    // pay for the separator's dense work (judged by the vertex graph's factor: with three
-    // dofs per vertex the dofs' factor has about nine times its entries). Not conditioned on
-    // the thread count: with one thread the halves run one after the other, same results.
-    if let Some(parts) = ordering.split
-        && opts.split_factorization
-        && 9 * ordering.nd_fill.unwrap_or(0) >= SPLIT_MIN_FACTOR_LEN
-    {
+    // Two threads for the factorization and the solves where the ordering offers its split
+    // (asked for, and the factor large enough to pay for the separator's dense work). Not
+    // conditioned on the thread count: with one thread the halves run one after the other,
+    // same results.
+    if let Some(parts) = ordering.split {
         match CholeskySolver::with_split_ordering(sys.pattern(), &ordering.dofs, parts) {
             Ok(s) => {
                 tracing::debug!(parts = ?parts, len = s.factor_len(), "split factorization");

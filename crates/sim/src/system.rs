@@ -53,9 +53,13 @@ pub const SPLIT_FILL_ALLOWANCE: f64 = 1.25;
 /// whether its top split can be used (see [`System::dof_ordering`]).
 fn prefer_nested(amd_fill: usize, nd_fill: usize, splittable: bool) -> bool {
     nd_fill < amd_fill
-        || (splittable
-            && 9 * nd_fill >= crate::newton::SPLIT_MIN_FACTOR_LEN
-            && (nd_fill as f64) < SPLIT_FILL_ALLOWANCE * amd_fill as f64)
+        || (splittable && large_enough_to_split(nd_fill) && (nd_fill as f64) < SPLIT_FILL_ALLOWANCE * amd_fill as f64)
+}
+
+/// Whether a factor of this many vertex-graph entries pays for the two-thread split (with
+/// three dofs per vertex the dofs' factor has about nine times its entries).
+fn large_enough_to_split(nd_fill: usize) -> bool {
+    9 * nd_fill >= crate::newton::SPLIT_MIN_FACTOR_LEN
 }
 
 /// Nested-dissection parts of at most this many vertices are ordered by AMD.
@@ -69,7 +73,8 @@ pub struct DofOrdering {
     /// Whether nested dissection was chosen (else AMD).
     pub nested: bool,
     /// With nested dissection, the dof counts of the two halves of its top split (eliminated
-    /// first, before their separator), if it split.
+    /// first, before their separator), where the split factorization was asked for and the
+    /// factor is large enough for it.
     pub split: Option<[usize; 2]>,
     /// Entries of the vertex graph's factor in AMD's order.
     pub amd_fill: usize,
@@ -359,7 +364,9 @@ impl<'a> System<'a> {
                 let free = |nodes: &[usize]| -> usize {
                     nodes.iter().map(|&v| self.dof[v].iter().filter(|&&i| i != u32::MAX).count()).sum()
                 };
-                let split = top.map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
+                let split = top
+                    .filter(|_| split && large_enough_to_split(fill))
+                    .map(|[a, b]| [free(&order[..a]), free(&order[a..a + b])]);
                 let amd_dofs = (fill >= amd_fill).then(|| self.dofs_in_node_order(&amd_order));
                 DofOrdering { dofs: self.dofs_in_node_order(&order), nested: true, split, amd_fill, nd_fill, amd_dofs }
             }

@@ -101,11 +101,16 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
             break (Some(seg), None);
         }
         let attempt = Instant::now();
-        match stages::patterns::run(&cfg, &input, f, &seg, progress) {
-            Err(Failure::Input(e)) if e.downcast_ref::<stages::patterns::TooWide>().is_some() => {
+        let result = stages::patterns::run(&cfg, &input, f, &seg, progress);
+        let too_wide = match &result {
+            Err(Failure::Input(e)) => {
+                e.downcast_ref::<stages::patterns::TooWide>().map(|t| (t.to_string(), t.pieces.clone()))
+            }
+            _ => None,
+        };
+        match (result, too_wide) {
+            (Err(_), Some((e, pieces))) => {
                 redone_seconds += attempt.elapsed().as_secs_f64();
-                let pieces =
-                    e.downcast_ref::<stages::patterns::TooWide>().map(|t| t.pieces.clone()).unwrap_or_default();
                 // The same pieces as last time: the layout could not split them (too few faces,
                 // or no cut into two disks), and it would not next time either.
                 if retries == ROLL_RETRIES || pieces == last_too_wide {
@@ -129,12 +134,12 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 retries += 1;
                 progress.say(format!("{e}: laying the patches out again with those split (layout {})", retries + 1));
             }
-            Err(e) => {
+            (Err(e), None) => {
                 // What the layout was, for the user to look at.
                 stages::segmentation::write_outputs(&args.out, &input, &seg)?;
                 return Err(e);
             }
-            Ok(p) => break (Some(seg), Some(p)),
+            (Ok(p), _) => break (Some(seg), Some(p)),
         }
     };
     if let Some(seg) = &segmentation {

@@ -59,9 +59,8 @@ pub fn seam_label(id: usize) -> String {
     format!("{letter}{}", id % 99 + 1)
 }
 
-/// Pieces wider than the roll (the pattern stage's `PieceTooWide`, or found before it), with
-/// how much too wide: the `run` command lays the patches out again, those split, when it sees
-/// this.
+/// Pieces wider than the roll (the pattern stage's `PieceTooWide`), with how much too wide:
+/// the `run` command lays the patches out again, those split, when it sees this.
 #[derive(Debug)]
 pub struct TooWide {
     /// The message for the user.
@@ -150,45 +149,16 @@ pub fn run(
         piece_gap_mm: cfg.pattern.piece_gap_mm,
         text_height_mm: cfg.pattern.text_height_mm,
     };
-    // Every piece too wide for the roll at once (the sew line's box grown by the allowance on
-    // both sides; the pattern stage checks the cut line itself, exactly, one piece at a time).
-    let too_wide: Vec<(u32, f64)> = pieces
-        .iter()
-        .filter_map(|pc| {
-            let (lo, hi) = pc.outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), q| {
-                ([lo[0].min(q[0]), lo[1].min(q[1])], [hi[0].max(q[0]), hi[1].max(q[1])])
-            });
-            let r = popts.seam_allowance_mm;
-            let (w, h) = (hi[0] - lo[0] + 2.0 * r, hi[1] - lo[1] + 2.0 * r);
-            let across = if popts.allow_weft_swap { w.min(h) } else { h };
-            (across > popts.fabric_width_mm).then_some((pc.id as u32, across / popts.fabric_width_mm))
-        })
-        .collect();
-    if let Some(&(first, _)) = too_wide.first() {
-        return Err(Failure::Input(anyhow::Error::new(TooWide {
-            message: format!(
-                "{} piece(s) wider than the {:.0} mm roll (the first: P{first}); set [pattern] fabric_width_mm wider or allow_weft_swap = true",
-                too_wide.len(),
-                popts.fabric_width_mm
-            ),
-            pieces: too_wide,
-        })));
-    }
     let pattern = build_pattern(&pieces, &popts).map_err(|e| {
         // A piece wider than the roll is the user's choice of roll; anything else is ours.
-        if let clothcast_pattern::PatternError::PieceTooWide {
-            piece,
-            width_mm,
-            height_mm,
-            fabric_width_mm,
-            weft_swap,
-            ..
-        } = e
-        {
-            let across = if weft_swap { width_mm.min(height_mm) } else { height_mm };
+        if let clothcast_pattern::PatternError::PieceTooWide { too_wide, .. } = &e {
+            let more = match too_wide.len() {
+                0 | 1 => String::new(),
+                n => format!(" ({n} pieces too wide in all)"),
+            };
             Failure::Input(anyhow::Error::new(TooWide {
-                message: format!("{e}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"),
-                pieces: vec![(piece as u32, across / fabric_width_mm)],
+                message: format!("{e}{more}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"),
+                pieces: too_wide.iter().map(|&(piece, ratio)| (piece as u32, ratio)).collect(),
             }))
         } else {
             Failure::Internal(anyhow::anyhow!("building the patterns: {e}"))

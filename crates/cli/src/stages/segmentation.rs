@@ -19,6 +19,11 @@ const EXTENT_ALLOWANCE: f64 = 1.25;
 /// The most pieces a roll may take before its width is refused as too narrow.
 const MAX_PIECES: usize = 250;
 
+/// The roll's width less the seam allowance on both sides of a piece (metres).
+fn usable_width_m(cfg: &Config) -> f64 {
+    (cfg.pattern.fabric_width_mm - 2.0 * cfg.pattern.seam_allowance_mm) / 1000.0
+}
+
 /// The library options from the scenario, with the patches to split further (`hints`, from
 /// earlier layouts whose pieces did not fit the roll).
 pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
@@ -40,9 +45,7 @@ pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
         // patch's extent (its longest path) bounds its piece's width across the roll from
         // above, by more the less round it is; pieces that still do not fit once flattened are
         // split in a new layout (the `run` command).
-        max_patch_extent: ((cfg.pattern.fabric_width_mm - 2.0 * cfg.pattern.seam_allowance_mm) / 1000.0
-            * EXTENT_ALLOWANCE)
-            .max(0.0),
+        max_patch_extent: (usable_width_m(cfg) * EXTENT_ALLOWANCE).max(0.0),
         split_hints: hints.to_vec(),
         seed: cfg.seed,
     }
@@ -59,7 +62,7 @@ pub fn run(
     // A roll so narrow that the mold would take hundreds of pieces is a mistake in the scenario,
     // not a layout to make (every piece at most about a disk as wide as the roll).
     let (w, a) = (cfg.pattern.fabric_width_mm, cfg.pattern.seam_allowance_mm);
-    let usable = (w - 2.0 * a) / 1000.0;
+    let usable = usable_width_m(cfg);
     let area = input.mesh.total_area();
     let least = area / (std::f64::consts::FRAC_PI_4 * (EXTENT_ALLOWANCE * usable).powi(2));
     if !(usable > 0.0) || least > MAX_PIECES as f64 {
