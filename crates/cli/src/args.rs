@@ -90,6 +90,12 @@ pub struct MeshArgs {
     /// Suspension direction: +x, -x, +y, -y, +z or -z (overrides mesh.up).
     #[arg(long, allow_hyphen_values = true)]
     pub up: Option<String>,
+    /// Refine a coarse mesh to at least this many faces (overrides mesh.min_faces).
+    #[arg(long)]
+    pub min_faces: Option<usize>,
+    /// Do not refine a coarse mesh (mesh.refine = false).
+    #[arg(long)]
+    pub no_refine: bool,
 }
 
 /// `clothcast run`

@@ -189,11 +189,19 @@ pub struct MeshSection {
     pub height: Option<f64>,
     /// The suspension direction: up when the mold hangs.
     pub up: Up,
+    /// Refine a coarse mesh (longest edges split at their midpoints, the shape unchanged) to
+    /// `min_faces` faces and no edge longer than a tenth of the roll's usable width.
+    pub refine: bool,
+    /// With `refine`: the fewest faces the mesh is refined to.
+    pub min_faces: usize,
 }
+
+/// Largest accepted `mesh.min_faces`.
+pub const MAX_MIN_FACES: usize = 4_000_000;
 
 impl Default for MeshSection {
     fn default() -> Self {
-        Self { path: None, units: Units::M, height: None, up: Up::axis(2, 1.0) }
+        Self { path: None, units: Units::M, height: None, up: Up::axis(2, 1.0), refine: true, min_faces: 1000 }
     }
 }
 
@@ -559,6 +567,9 @@ impl Config {
         };
         if let Some(h) = self.mesh.height {
             positive("mesh", "height", h)?;
+        }
+        if self.mesh.min_faces > MAX_MIN_FACES {
+            return Err(err("mesh", "min_faces", self.mesh.min_faces.to_string(), "must be at most 4000000"));
         }
         positive("material", "youngs_modulus", self.material.youngs_modulus)?;
         let nu = self.material.poisson_ratio;

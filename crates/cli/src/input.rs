@@ -1,13 +1,21 @@
 //! Loading the target mesh: file or built-in example, strict validation or opt-in repair,
-//! units and height scaling to metres.
+//! units and height scaling to metres, refinement of a coarse mesh (`mesh.refine`).
 
 use crate::config::Config;
 use crate::failure::{Blame, Failure};
+use crate::stages::segmentation::{roll_too_narrow, usable_width_m};
 use anyhow::anyhow;
 use clothcast_mesh::io::read_mesh_file;
 use clothcast_mesh::repair::{RepairOptions, RepairReport, prepare};
-use clothcast_mesh::{Mesh, Vec3, shapes};
+use clothcast_mesh::{Mesh, Vec3, shapes, subdivide};
 use serde::Serialize;
+
+/// A refined mesh's longest edge is at most the roll's usable width over this: a patch as
+/// wide as the roll is then some ten edges across, enough to be cut in two.
+const EDGES_ACROSS_ROLL: f64 = 10.0;
+
+/// The refinement's face cap for the edge length (a larger `mesh.min_faces` raises it).
+const MAX_REFINED_FACES: usize = 200_000;
 
 /// Height of the built-in example (metres).
 pub const EXAMPLE_HEIGHT: f64 = 0.5;
@@ -24,12 +32,15 @@ pub struct Input {
     pub up: Vec3,
     /// What `--repair` / `--largest-component` changed.
     pub repairs: RepairReport,
-    /// For each mesh vertex, the input file's vertex.
-    #[allow(dead_code)] // read by the simulation stage (explicit suspension vertices)
+    /// For each of the mesh's first `vertex_to_input.len()` vertices, the input file's vertex
+    /// (the vertices refinement added, after those, have none).
     pub vertex_to_input: Vec<u32>,
-    /// For each mesh face, the input file's triangle.
-    #[allow(dead_code)] // kept for outputs that refer back to input faces
+    /// For each mesh face, the input file's triangle containing it.
     pub face_to_input: Vec<u32>,
+    /// Faces before refinement (after repairs).
+    pub unrefined_faces: usize,
+    /// Edges split by the refinement (`mesh.refine`).
+    pub refinement_splits: usize,
 }
 
 /// The `input` section of summary.json.
@@ -39,8 +50,12 @@ pub struct InputSummary {
     pub path: String,
     /// Vertices (after repairs).
     pub vertices: usize,
-    /// Faces (after repairs).
+    /// Faces (after repairs and refinement: those of the mesh every stage works on).
     pub faces: usize,
+    /// Faces after repairs, before refinement (equal to `faces` when not refined).
+    pub unrefined_faces: usize,
+    /// Edges split by the refinement of a coarse mesh (`mesh.refine`; 0 when not refined).
+    pub refinement_splits: usize,
     /// Connected components.
     pub components: usize,
     /// Boundary loops.
@@ -67,6 +82,8 @@ impl Input {
             path: self.label.clone(),
             vertices: m.n_vertices(),
             faces: m.n_faces(),
+            unrefined_faces: self.unrefined_faces,
+            refinement_splits: self.refinement_splits,
             components: m.n_components(),
             boundary_loops: m.boundary_loops().len(),
             euler_characteristic: m.euler_characteristic(),
@@ -121,6 +138,24 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         let p = mesh.positions().map(|x| x * to_metres);
         mesh.set_positions(p);
     }
+    let unrefined_faces = mesh.n_faces();
+    let (mut face_to_input, mut refinement_splits) = (prepared.face_to_input, 0);
+    if cfg.mesh.refine {
+        // Edges at most a tenth of the roll's usable width, so that patches can be split to
+        // fit it (not when the roll is refused as too narrow: the layout says so).
+        let max_edge = if roll_too_narrow(cfg, mesh.total_area()) {
+            f64::INFINITY
+        } else {
+            usable_width_m(cfg) / EDGES_ACROSS_ROLL
+        };
+        let r = subdivide::refine(&mesh, cfg.mesh.min_faces, max_edge, cfg.mesh.min_faces.max(MAX_REFINED_FACES))
+            .map_err(|e| Failure::Internal(anyhow!("{label}: refining the mesh: {e}")))?;
+        if r.splits > 0 {
+            face_to_input = r.parent.iter().map(|&f| face_to_input[f as usize]).collect();
+            refinement_splits = r.splits;
+            mesh = r.mesh;
+        }
+    }
     Ok(Input {
         label,
         mesh,
@@ -128,6 +163,8 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         up,
         repairs: prepared.report,
         vertex_to_input: prepared.vertex_to_input,
-        face_to_input: prepared.face_to_input,
+        face_to_input,
+        unrefined_faces,
+        refinement_splits,
     })
 }

@@ -8,9 +8,12 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// `clothcast run MESH --height H` into a fresh directory, which it returns; it must succeed.
-fn run_scaled(tag: &str, mesh: &str, height: &str) -> PathBuf {
+fn run_scaled(tag: &str, mesh: &str, height: &str, extra: &[&str]) -> PathBuf {
     let out = tmpdir(tag);
-    let o = run(&["run", data(mesh).to_str().unwrap(), "--height", height, "-q", "-o", out.to_str().unwrap()]);
+    let mesh = data(mesh);
+    let mut args = vec!["run", mesh.to_str().unwrap(), "--height", height, "-q", "-o", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let o = run(&args);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     out
 }
@@ -118,17 +121,17 @@ fn run_on_the_example_writes_everything() {
 
 #[test]
 fn run_on_fertility_writes_everything() {
-    let out = run_scaled("fertility", "closed/fertility.off", "0.5");
+    let out = run_scaled("fertility", "closed/fertility.off", "0.5", &[]);
     let s = check_run(&out);
     assert_eq!(s["input"]["genus"], 4);
 }
 
-/// bob_small (genus 1, 500 faces) at 0.5 m has a patch whose flattened outline looped over
+/// bob_small (genus 1, 500 faces, not refined) at 0.5 m has a patch whose flattened outline looped over
 /// itself, and the pattern stage refused it (exit 1): the looping stretch of its boundary is
 /// now uncurled until the outline is simple, and every piece is cut.
 #[test]
 fn a_self_crossing_outline_is_repaired_and_cut() {
-    let out = run_scaled("bob_small", "closed/bob_small.ply", "0.5");
+    let out = run_scaled("bob_small", "closed/bob_small.ply", "0.5", &["--no-refine"]);
     let s = summary(&out);
     let fl = &s["flattening"];
     assert_eq!(fl["outlines_not_simple"], 0);
@@ -143,7 +146,7 @@ fn a_self_crossing_outline_is_repaired_and_cut() {
 /// exit 2 asking for a wider roll): its patches are split until every piece fits.
 #[test]
 fn pieces_are_split_to_fit_the_roll() {
-    let out = run_scaled("sphere2m", "closed/sphere.obj", "2.0");
+    let out = run_scaled("sphere2m", "closed/sphere.obj", "2.0", &[]);
     let s = summary(&out);
     let (seg, pt) = (&s["segmentation"], &s["patterns"]);
     assert!(seg["size_splits"].as_u64().unwrap() + pt["layout_retries"].as_u64().unwrap() > 0, "{seg} {pt}");
@@ -153,6 +156,40 @@ fn pieces_are_split_to_fit_the_roll() {
     let target = s["input"]["area_m2"].as_f64().unwrap();
     let pieces_area = pt["pieces_area_mm2"].as_f64().unwrap() * 1e-6;
     assert!((pieces_area / target - 1.0).abs() < 0.02, "{pieces_area} against {target}");
+}
+
+/// A CAD-style box of 48 triangles, 2 m wide: unrefined, its sides cannot be cut to fit the
+/// 1.5 m roll (exit 2); refined (longest edges split until none is longer than a tenth of the
+/// roll's usable width) it is cut in flat pieces, and the outputs are on the refined mesh,
+/// whose first vertices are the input's.
+#[test]
+fn a_coarse_box_is_refined_and_cut() {
+    let out = tmpdir("coarse-box");
+    let cube = data("closed/cube.obj");
+    let o = run(&["run", cube.to_str().unwrap(), "-q", "--no-refine", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("does not fit"), "{}", text(&o));
+
+    let out = run_scaled("coarse-box", "closed/cube.obj", "2.0", &[]);
+    let s = check_run(&out);
+    let inp = &s["input"];
+    let faces = inp["faces"].as_u64().unwrap();
+    assert_eq!(inp["unrefined_faces"], 48);
+    // Each split of an interior edge adds two faces.
+    assert_eq!(faces, 48 + 2 * inp["refinement_splits"].as_u64().unwrap(), "{inp}");
+    assert!(faces >= 1000, "{inp}");
+    assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
+    // The sides are flat: every piece is developable, flattened without distortion.
+    assert!(s["flattening"]["qc_max"].as_f64().unwrap() < 1.01, "{}", s["flattening"]);
+    let deformed = std::fs::read(out.join("deformed.ply")).unwrap();
+    let header = String::from_utf8_lossy(&deformed[..deformed.len().min(600)]).to_string();
+    assert!(header.contains(&format!("element face {faces}\n")), "{header}");
+    // The input's vertices keep their ids: explicit suspension vertices still name them.
+    let cfg = out.join("corners.toml");
+    std::fs::write(&cfg, "[suspension]\nmode = \"vertices\"\nvertices = [0, 26]\n").unwrap();
+    let o = run(&["simulate", cube.to_str().unwrap(), "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("vertex 26 is not in the (repaired) mesh, which has 26 vertices"), "{}", text(&o));
 }
 
 #[test]

@@ -5,7 +5,7 @@
 //! that names every problem ([`validate`]), opt-in repair ([`repair`]), mesh files
 //! ([`io`]: OBJ, PLY, STL, OFF in; OBJ and PLY with custom properties out; atomic writes),
 //! discrete geometry ([`geometry`]: areas, normals, angles, curvature, cotan Laplacian, mass,
-//! frames), submeshes ([`submesh`]), coarse versions and closest points ([`simplify`]), sparse
+//! frames), submeshes ([`submesh`]), uniform midpoint refinement ([`subdivide`]), coarse versions and closest points ([`simplify`]), sparse
 //! Cholesky with symbolic reuse ([`sparse`]) and generated shapes including the built-in
 //! example ([`shapes`]).
 //!
@@ -30,6 +30,7 @@ pub mod shapes;
 pub mod simplify;
 pub mod soup;
 pub mod sparse;
+pub mod subdivide;
 pub mod submesh;
 pub mod util;
 pub mod validate;

@@ -75,6 +75,12 @@ fn apply_mesh_flags(cfg: &mut Config, m: &MeshArgs) -> Result<(), Failure> {
     if let Some(up) = &m.up {
         cfg.mesh.up = Up::parse(up).map_err(|e| Failure::Input(anyhow!("--up: {e}")))?;
     }
+    if let Some(n) = m.min_faces {
+        cfg.mesh.min_faces = n;
+    }
+    if m.no_refine {
+        cfg.mesh.refine = false;
+    }
     Ok(())
 }
 

@@ -20,8 +20,17 @@ const EXTENT_ALLOWANCE: f64 = 1.25;
 const MAX_PIECES: usize = 250;
 
 /// The roll's width less the seam allowance on both sides of a piece (metres).
-fn usable_width_m(cfg: &Config) -> f64 {
+pub fn usable_width_m(cfg: &Config) -> f64 {
     (cfg.pattern.fabric_width_mm - 2.0 * cfg.pattern.seam_allowance_mm) / 1000.0
+}
+
+/// True when the roll is so narrow that a mold of this area would take hundreds of pieces
+/// (every piece at most about a disk as wide as the roll): a mistake in the scenario, refused
+/// by [`run`].
+pub fn roll_too_narrow(cfg: &Config, area_m2: f64) -> bool {
+    let usable = usable_width_m(cfg);
+    let least = area_m2 / (std::f64::consts::FRAC_PI_4 * (EXTENT_ALLOWANCE * usable).powi(2));
+    !(usable > 0.0) || least > MAX_PIECES as f64
 }
 
 /// The library options from the scenario, with the patches to split further (`hints`, from
@@ -59,13 +68,10 @@ pub fn run(
     hints: &[SplitHint],
     progress: &Progress,
 ) -> Result<Segmentation, Failure> {
-    // A roll so narrow that the mold would take hundreds of pieces is a mistake in the scenario,
-    // not a layout to make (every piece at most about a disk as wide as the roll).
     let (w, a) = (cfg.pattern.fabric_width_mm, cfg.pattern.seam_allowance_mm);
     let usable = usable_width_m(cfg);
     let area = input.mesh.total_area();
-    let least = area / (std::f64::consts::FRAC_PI_4 * (EXTENT_ALLOWANCE * usable).powi(2));
-    if !(usable > 0.0) || least > MAX_PIECES as f64 {
+    if roll_too_narrow(cfg, area) {
         return Err(Failure::Input(anyhow::anyhow!(
             "the roll is too narrow for this mold: [pattern] fabric_width_mm = {w} mm less twice seam_allowance_mm \
              = {a} mm leaves {:.0} mm, and the target's {area:.3} m² would take over {MAX_PIECES} pieces; set \
@@ -103,7 +109,7 @@ pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation) -> Result<()
     let pos: Vec<Vec3> = m.positions().iter().map(|p| p / input.to_metres).collect();
     let tris: Vec<[u32; 3]> = m.faces().iter().map(|t| t.map(|v| v.0)).collect();
     let patch: Vec<i32> = seg.patch_of_face.iter().map(|&p| p as i32).collect();
-    let parent: Vec<i32> = seg.face_parent.iter().map(|f| f.0 as i32).collect();
+    let parent: Vec<i32> = seg.face_parent.iter().map(|f| input.face_to_input[f.idx()] as i32).collect();
     let fattr = [Attribute::i32("patch", patch), Attribute::i32("parent_face", parent)];
     let comment = "clothcast segmentation: the target remeshed along the seams; patch = patch id per face, parent_face = face of the input mesh containing it";
     let path = out.join("segmentation.ply");

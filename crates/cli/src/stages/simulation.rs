@@ -32,7 +32,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
                     None => {
                         return Err(Failure::Input(anyhow!(
                             "suspension.vertices: vertex {v} is not in the (repaired) mesh, which has {} vertices",
-                            input.mesh.n_vertices()
+                            input.vertex_to_input.len()
                         )));
                     }
                 }
