@@ -148,9 +148,9 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         } else {
             usable_width_m(cfg) / EDGES_ACROSS_ROLL
         };
-        let r = subdivide::refine(&mesh, cfg.mesh.min_faces, max_edge, cfg.mesh.min_faces.max(MAX_REFINED_FACES))
+        let refined = subdivide::refine(&mesh, cfg.mesh.min_faces, max_edge, cfg.mesh.min_faces.max(MAX_REFINED_FACES))
             .map_err(|e| Failure::Internal(anyhow!("{label}: refining the mesh: {e}")))?;
-        if r.splits > 0 {
+        if let Some(r) = refined {
             face_to_input = r.parent.iter().map(|&f| face_to_input[f as usize]).collect();
             refinement_splits = r.splits;
             mesh = r.mesh;

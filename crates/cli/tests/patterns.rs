@@ -192,6 +192,19 @@ fn a_coarse_box_is_refined_and_cut() {
     assert!(text(&o).contains("vertex 26 is not in the (repaired) mesh, which has 26 vertices"), "{}", text(&o));
 }
 
+/// The capped cylinder at 1 m, refined to 1920 faces: a patch too wide for the roll bends over
+/// the rim, where every sweep cut of its spectral split leaves a side in two parts; the split
+/// takes a side's largest part against the rest, and every piece fits (it stopped with exit 2
+/// before that fallback).
+#[test]
+fn a_patch_over_a_crease_is_split_to_fit_the_roll() {
+    let out = run_scaled("cylinder1m", "closed/cylinder.obj", "1.0", &[]);
+    let s = summary(&out);
+    assert!(s["input"]["refinement_splits"].as_u64().unwrap() > 0);
+    assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
+    assert_eq!(cut_pieces(&out) as u64, s["patterns"]["pieces"].as_u64().unwrap());
+}
+
 #[test]
 fn flatten_command_and_determinism() {
     let a = tmpdir("det-a");

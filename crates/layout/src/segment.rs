@@ -1897,7 +1897,8 @@ impl<'a> State<'a> {
                     worst = Some((s, p));
                 }
             }
-            let Some((_, p)) = worst else { break };
+            let Some((measure, p)) = worst else { break };
+            tracing::debug!(patch = p, faces = self.faces[p as usize].len(), measure, "splitting");
             let label = |f: FaceId| self.label[f];
             let seam = |e: EdgeId| self.seam[e];
             let split = spectral_split(
@@ -1911,6 +1912,7 @@ impl<'a> State<'a> {
                 seed.wrapping_add(splits as u64),
             )?;
             let Some(split) = split else {
+                tracing::debug!(patch = p, "no cut into two disks");
                 failed.insert(p);
                 continue;
             };

@@ -178,30 +178,84 @@ pub fn spectral_split(
     // Keep candidates distinct enough: skip positions within 2% of the faces of a tried one.
     let mut tried: Vec<usize> = Vec::new();
     let spacing = (n / 50).max(1);
-    for &(ncut, k) in &cands {
+    for &(_, k) in &cands {
         if tried.len() >= MAX_CANDIDATES {
             break;
         }
-        if tried.iter().any(|&t| t.abs_diff(k) < spacing) {
-            continue;
+        if tried.iter().all(|&t| t.abs_diff(k) >= spacing) {
+            tried.push(k);
         }
-        tried.push(k);
+    }
+    let ncut_of = |k: usize| cands.iter().find(|c| c.1 == k).map_or(f64::INFINITY, |c| c.0);
+    let sides = |k: usize| {
         let mut a: Vec<FaceId> = order[..=k].iter().map(|&i| faces[i]).collect();
         let mut b: Vec<FaceId> = order[k + 1..].iter().map(|&i| faces[i]).collect();
         a.sort_unstable();
         b.sort_unstable();
+        (a, b)
+    };
+    let two_disks = |a: Vec<FaceId>, b: Vec<FaceId>, ncut: f64| {
         let side_label = |f: FaceId| side_label(label(f), own, &a, f);
         let info_a = region_info(mesh, &a, &side_label, seam, rule);
         if !info_a.is_disk() {
-            continue;
+            return None;
         }
         let info_b = region_info(mesh, &b, &side_label, seam, rule);
-        if !info_b.is_disk() {
-            continue;
+        info_b.is_disk().then_some(Split { a, b, info_a, info_b, ncut })
+    };
+    for &k in &tried {
+        let (a, b) = sides(k);
+        if let Some(split) = two_disks(a, b, ncut_of(k)) {
+            return Ok(Some(split));
         }
-        return Ok(Some(Split { a, b, info_a, info_b, ncut }));
+    }
+    // No sweep cut gives two disks: where a side falls in several parts (the Fiedler vector's
+    // level sets break up on a patch bent over a crease, or U-shaped), its largest part against
+    // the rest of the patch. Tried last, so that patches split before keep their cut.
+    for &k in &tried {
+        let (a, b) = sides(k);
+        for side in [&a, &b] {
+            let parts = connected_parts(mesh, side, seam);
+            if parts.len() < 2 {
+                continue;
+            }
+            let area = |p: &Vec<FaceId>| p.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
+            let largest =
+                parts.into_iter().map(|p| (area(&p), p)).max_by(|x, y| x.0.total_cmp(&y.0)).expect("two parts");
+            if !(MIN_SIDE..=1.0 - MIN_SIDE).contains(&(largest.0 / total_area)) {
+                continue;
+            }
+            let rest: Vec<FaceId> = faces.iter().copied().filter(|f| largest.1.binary_search(f).is_err()).collect();
+            if let Some(split) = two_disks(largest.1, rest, ncut_of(k)) {
+                return Ok(Some(split));
+            }
+        }
     }
     Ok(None)
+}
+
+/// The parts of a face set (sorted) connected across edges where not `cut`; each sorted, in
+/// the order of their first face.
+fn connected_parts(mesh: &Mesh, faces: &[FaceId], cut: &impl Fn(EdgeId) -> bool) -> Vec<Vec<FaceId>> {
+    let mut uf = UnionFind::new(faces.len());
+    for (i, &f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let h = mesh.face_halfedge(f, k);
+            let Some(t) = mesh.twin(h) else { continue };
+            if cut(mesh.edge(h)) {
+                continue;
+            }
+            if let Ok(j) = faces.binary_search(&mesh.face(t)) {
+                uf.union(i as u32, j as u32);
+            }
+        }
+    }
+    let (labels, n) = uf.labels();
+    let mut parts = vec![Vec::new(); n];
+    for (&f, &l) in faces.iter().zip(&labels) {
+        parts[l as usize].push(f);
+    }
+    parts
 }
 
 /// The label of face `f` while patch `own` is being split into `a` (sorted) and the rest: its
@@ -223,25 +277,12 @@ pub(crate) fn two_sides(
     faces: &[FaceId],
     cut: &impl Fn(EdgeId) -> bool,
 ) -> Option<(Vec<FaceId>, Vec<FaceId>)> {
-    let mut uf = UnionFind::new(faces.len());
-    for (i, &f) in faces.iter().enumerate() {
-        for k in 0..3 {
-            let h = mesh.face_halfedge(f, k);
-            let Some(t) = mesh.twin(h) else { continue };
-            if cut(mesh.edge(h)) {
-                continue;
-            }
-            if let Ok(j) = faces.binary_search(&mesh.face(t)) {
-                uf.union(i as u32, j as u32);
-            }
-        }
-    }
-    let (labels, n) = uf.labels();
-    if n != 2 {
+    let mut parts = connected_parts(mesh, faces, cut);
+    if parts.len() != 2 {
         return None;
     }
-    let a: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 0).map(|(&f, _)| f).collect();
-    let b: Vec<FaceId> = faces.iter().zip(&labels).filter(|(_, l)| **l == 1).map(|(&f, _)| f).collect();
+    let b = parts.pop()?;
+    let a = parts.pop()?;
     Some((a, b))
 }
 

@@ -37,8 +37,14 @@ pub struct Refined {
 
 /// Split longest edges until the mesh has at least `min_faces` faces and no edge longer than
 /// `max_edge` (`f64::INFINITY`: no length limit), or until it has `max_faces` faces (a cap
-/// against a limit far below the mesh's scale). No split when both hold already.
-pub fn refine(mesh: &Mesh, min_faces: usize, max_edge: f64, max_faces: usize) -> Result<Refined, MeshError> {
+/// against a limit far below the mesh's scale). `None` when both hold already (or the cap
+/// does): nothing to split.
+pub fn refine(mesh: &Mesh, min_faces: usize, max_edge: f64, max_faces: usize) -> Result<Option<Refined>, MeshError> {
+    let longest = mesh.edges().map(|e| mesh.edge_length(e)).fold(0.0, f64::max);
+    let n = mesh.n_faces();
+    if (n >= min_faces && longest <= max_edge) || n >= max_faces {
+        return Ok(None);
+    }
     let mut pos: Vec<Vec3> = mesh.positions().iter().copied().collect();
     let mut tris: Vec<[u32; 3]> = mesh.faces().iter().map(|t| t.map(|v| v.0)).collect();
     let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
@@ -94,7 +100,7 @@ pub fn refine(mesh: &Mesh, min_faces: usize, max_edge: f64, max_faces: usize) ->
         splits += 1;
     }
     let mesh = Mesh::try_new(pos, tris)?;
-    Ok(Refined { mesh, parent, splits })
+    Ok(Some(Refined { mesh, parent, splits }))
 }
 
 #[cfg(test)]
@@ -127,35 +133,34 @@ mod tests {
     #[test]
     fn refines_to_a_face_count_keeping_shape_ids_and_angles() {
         let m = shapes::cylinder(0.3, 1.0, 12, 3, true, false);
-        let r = refine(&m, 1000, f64::INFINITY, usize::MAX).unwrap();
+        let r = refine(&m, 1000, f64::INFINITY, usize::MAX).unwrap().unwrap();
         assert!(r.mesh.n_faces() >= 1000 && r.mesh.n_faces() < 1004, "{}", r.mesh.n_faces());
         assert_eq!(r.mesh.n_vertices(), m.n_vertices() + r.splits);
         check_refinement(&m, &r);
         // Longest-edge bisection keeps the smallest angle at least half the input's.
         let min_angle = |m: &Mesh| m.corner_angles().iter().copied().fold(f64::INFINITY, f64::min);
         assert!(min_angle(&r.mesh) >= 0.5 * min_angle(&m) - 1e-12);
-        // Nothing to do: the same mesh.
-        let same = refine(&m, 10, f64::INFINITY, usize::MAX).unwrap();
-        assert_eq!(same.splits, 0);
-        assert_eq!(same.mesh.faces(), m.faces());
+        // Nothing to do.
+        assert!(refine(&m, 10, f64::INFINITY, usize::MAX).unwrap().is_none());
+        assert!(refine(&m, 1000, f64::INFINITY, 10).unwrap().is_none());
     }
 
     #[test]
     fn refines_needles_to_a_length_limit_where_they_are_long() {
         // A 4 m by 0.2 m strip of two needles: cut across until every edge is at most 0.5 m.
         let mut m = shapes::grid(1, 1, 4.0, 0.2);
-        let r = refine(&m, 0, 0.5, usize::MAX).unwrap();
+        let r = refine(&m, 0, 0.5, usize::MAX).unwrap().unwrap();
         assert!(r.mesh.edges().all(|e| r.mesh.edge_length(e) <= 0.5 + 1e-12));
         check_refinement(&m, &r);
         // The cap stops it.
-        let capped = refine(&m, 0, 1e-3, 100).unwrap();
+        let capped = refine(&m, 0, 1e-3, 100).unwrap().unwrap();
         assert!(capped.mesh.n_faces() >= 100 && capped.mesh.n_faces() < 104);
         // Deterministic.
-        let again = refine(&m, 0, 0.5, usize::MAX).unwrap();
+        let again = refine(&m, 0, 0.5, usize::MAX).unwrap().unwrap();
         assert_eq!(again.mesh.faces(), r.mesh.faces());
         assert_eq!(again.parent, r.parent);
         m = shapes::icosphere(0, 1.0);
-        let r = refine(&m, 0, 0.3, usize::MAX).unwrap();
+        let r = refine(&m, 0, 0.3, usize::MAX).unwrap().unwrap();
         assert!(r.mesh.edges().all(|e| r.mesh.edge_length(e) <= 0.3));
         assert_eq!(r.mesh.genus(), 0);
         check_refinement(&m, &r);

@@ -90,7 +90,6 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // the roll, up to `ROLL_RETRIES` times.
     let mut hints: Vec<SplitHint> = Vec::new();
     let mut retries = 0;
-    let mut last_too_wide: Vec<(u32, f64)> = Vec::new();
     // Time of every layout made, and of the flattening and patterns of the ones redone.
     let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
@@ -111,13 +110,14 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         match (result, too_wide) {
             (Err(_), Some((e, pieces))) => {
                 redone_seconds += attempt.elapsed().as_secs_f64();
-                // The same pieces as last time: the layout could not split them (too few faces,
-                // or no cut into two disks), and it would not next time either.
-                if retries == ROLL_RETRIES || pieces == last_too_wide {
+                // The same pieces may come back (the layout measures a patch before its seams
+                // are straightened, which can widen it): their hints are then cut further, so
+                // every new layout asks more, up to ROLL_RETRIES.
+                if retries == ROLL_RETRIES {
                     stages::segmentation::write_outputs(&args.out, &input, &seg)?;
                     return Err(Failure::Input(anyhow::anyhow!(
                         "{e} (after {} layout(s) splitting the pieces too wide: a patch with too few faces, or one no cut \
-                         parts into two disks, cannot be split further; a finer mesh may help)",
+                         parts into two disks, cannot be split further; a finer mesh (--min-faces) may help)",
                         retries + 1
                     )));
                 }
@@ -126,11 +126,25 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                     // too wide, with 5% to spare.
                     let own: Vec<FaceId> =
                         seg.patch_of_face.enumerate().filter(|&(_, &p)| p == piece).map(|(g, _)| g).collect();
-                    let max_extent = patch_extent(&seg.mesh, &own) * 0.95 / ratio.max(1.0);
-                    let faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
+                    let mut faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
+                    faces.sort_unstable();
+                    faces.dedup();
+                    let shrink = 0.95 / ratio.max(1.0);
+                    // A piece too wide again after a hint on its region: the layout measures the
+                    // patch before its seams are straightened and re-routed, which can make it
+                    // wider, so the hint's own extent is cut further (by the same factor), not
+                    // replaced by one that the older, smaller one overrides.
+                    let earlier = hints
+                        .iter()
+                        .filter(|h| {
+                            let common = h.faces.iter().filter(|f| faces.binary_search(f).is_ok()).count();
+                            2 * common >= faces.len() || 2 * common >= h.faces.len()
+                        })
+                        .map(|h| h.max_extent)
+                        .fold(f64::INFINITY, f64::min);
+                    let max_extent = (patch_extent(&seg.mesh, &own) * shrink).min(earlier * shrink);
                     hints.push(SplitHint { faces, max_extent });
                 }
-                last_too_wide = pieces;
                 retries += 1;
                 progress.say(format!("{e}: laying the patches out again with those split (layout {})", retries + 1));
             }
