@@ -78,6 +78,13 @@ pub struct PatternSection {
     pub text_height_mm: f64,
 }
 
+impl PatternSection {
+    /// The roll's width less the seam allowance on both sides of a piece (metres).
+    pub fn usable_width_m(&self) -> f64 {
+        (self.fabric_width_mm - 2.0 * self.seam_allowance_mm) / 1000.0
+    }
+}
+
 impl Default for PatternSection {
     fn default() -> Self {
         let p = clothcast_pattern::PatternOptions::default();

@@ -3,7 +3,7 @@
 
 use crate::config::Config;
 use crate::failure::{Blame, Failure};
-use crate::stages::segmentation::{roll_too_narrow, usable_width_m};
+use crate::stages::segmentation::roll_too_narrow;
 use anyhow::anyhow;
 use clothcast_mesh::io::read_mesh_file;
 use clothcast_mesh::repair::{RepairOptions, RepairReport, prepare};
@@ -48,8 +48,11 @@ pub struct Input {
 pub struct InputSummary {
     /// File path or "built-in example".
     pub path: String,
-    /// Vertices (after repairs).
+    /// Vertices (after repairs and refinement: those of the mesh every stage works on).
     pub vertices: usize,
+    /// Vertices after repairs, before refinement: the first `unrefined_vertices` are the input's
+    /// (the ids `suspension.vertices` names).
+    pub unrefined_vertices: usize,
     /// Faces (after repairs and refinement: those of the mesh every stage works on).
     pub faces: usize,
     /// Faces after repairs, before refinement (equal to `faces` when not refined).
@@ -81,6 +84,7 @@ impl Input {
         InputSummary {
             path: self.label.clone(),
             vertices: m.n_vertices(),
+            unrefined_vertices: self.vertex_to_input.len(),
             faces: m.n_faces(),
             unrefined_faces: self.unrefined_faces,
             refinement_splits: self.refinement_splits,
@@ -136,6 +140,11 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
     };
     if to_metres != 1.0 {
         let p = mesh.positions().map(|x| x * to_metres);
+        if let Some(v) = p.iter().position(|x| !x.iter().all(|c| c.is_finite())) {
+            return Err(Failure::Input(anyhow!(
+                "{label}: vertex {v} is not finite once scaled by {to_metres:e} to metres (mesh.height or mesh.units)"
+            )));
+        }
         mesh.set_positions(p);
     }
     let unrefined_faces = mesh.n_faces();
@@ -146,12 +155,18 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         let max_edge = if roll_too_narrow(cfg, mesh.total_area()) {
             f64::INFINITY
         } else {
-            usable_width_m(cfg) / EDGES_ACROSS_ROLL
+            cfg.pattern.usable_width_m() / EDGES_ACROSS_ROLL
         };
-        let refined = subdivide::refine(&mesh, cfg.mesh.min_faces, max_edge, cfg.mesh.min_faces.max(MAX_REFINED_FACES))
-            .map_err(|e| Failure::Internal(anyhow!("{label}: refining the mesh: {e}")))?;
-        if let Some(r) = refined {
-            face_to_input = r.parent.iter().map(|&f| face_to_input[f as usize]).collect();
+        let cap = cfg.mesh.min_faces.max(MAX_REFINED_FACES);
+        if let Some(r) = subdivide::refine(&mesh, cfg.mesh.min_faces, max_edge, cap) {
+            if r.capped {
+                tracing::warn!(
+                    faces = r.mesh.n_faces(),
+                    max_edge,
+                    "{label}: refinement stopped at {cap} faces with edges still longer than a tenth of the roll's usable width"
+                );
+            }
+            face_to_input = r.parent.iter().map(|&f| face_to_input[f.idx()]).collect();
             refinement_splits = r.splits;
             mesh = r.mesh;
         }
@@ -167,4 +182,47 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         unrefined_faces,
         refinement_splits,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clothcast_mesh::FaceId;
+
+    fn cube(cfg_extra: impl FnOnce(&mut Config)) -> Input {
+        let mut cfg = Config::default();
+        cfg.mesh.path = Some(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/cube.obj").into());
+        cfg_extra(&mut cfg);
+        load(&cfg, &RepairOptions::default()).unwrap()
+    }
+
+    /// The 2 m, 48-face cube refined: every face maps to the input triangle it lies in (same
+    /// plane, same orientation), the input's vertices keep their ids and positions, and no
+    /// edge is longer than a tenth of the roll's usable width.
+    #[test]
+    fn a_coarse_mesh_is_refined_with_its_maps() {
+        let raw = cube(|c| c.mesh.refine = false);
+        assert_eq!((raw.mesh.n_faces(), raw.refinement_splits), (48, 0));
+        let r = cube(|_| {});
+        assert_eq!(r.unrefined_faces, 48);
+        assert_eq!(r.mesh.n_faces(), 48 + 2 * r.refinement_splits);
+        assert_eq!(r.vertex_to_input.len(), raw.mesh.n_vertices());
+        for v in raw.mesh.vertices() {
+            assert_eq!(r.mesh.position(v), raw.mesh.position(v));
+        }
+        let (nr, nraw) = (r.mesh.face_normals(), raw.mesh.face_normals());
+        for f in r.mesh.face_ids() {
+            let p = FaceId::new(r.face_to_input[f.idx()] as usize);
+            assert!((nr[f] - nraw[p]).norm() < 1e-9, "face {f:?} not in input face {p:?}");
+            let c = r.mesh.face_positions(f).iter().sum::<Vec3>() / 3.0;
+            assert!((c - raw.mesh.position(raw.mesh.face_vertices(p)[0])).dot(&nraw[p]).abs() < 1e-9);
+        }
+        let limit = Config::default().pattern.usable_width_m() / EDGES_ACROSS_ROLL;
+        assert!(r.mesh.edge_lengths().iter().all(|&l| l <= limit));
+        let s = r.summary();
+        assert_eq!((s.unrefined_faces, s.unrefined_vertices), (48, 26));
+        // A larger minimum is honoured.
+        let more = cube(|c| c.mesh.min_faces = 20_000);
+        assert!(more.mesh.n_faces() >= 20_000);
+    }
 }

@@ -194,8 +194,8 @@ fn a_coarse_box_is_refined_and_cut() {
 
 /// The capped cylinder at 1 m, refined to 1920 faces: a patch too wide for the roll bends over
 /// the rim, where every sweep cut of its spectral split leaves a side in two parts; the split
-/// takes a side's largest part against the rest, and every piece fits (it stopped with exit 2
-/// before that fallback).
+/// takes a side's largest part against the rest, and every piece fits (checked: with that
+/// fallback disabled, this run stops with exit 2).
 #[test]
 fn a_patch_over_a_crease_is_split_to_fit_the_roll() {
     let out = run_scaled("cylinder1m", "closed/cylinder.obj", "1.0", &[]);

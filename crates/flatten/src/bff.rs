@@ -321,141 +321,189 @@ fn check_finite(values: &[f64], what: &str) -> Result<(), FlattenError> {
 /// [`FlattenError::Solver`] if the interior Laplacian cannot be factored even regularised;
 /// [`FlattenError::Degenerate`] if non-finite values appear or the boundary cannot be closed.
 pub fn bff_flatten(mesh: &Mesh, options: &BffOptions) -> Result<Flattening, FlattenError> {
-    let euler = mesh.euler_characteristic();
-    let loops = mesh.boundary_loops();
-    if euler != 1 || loops.len() != 1 {
-        return Err(FlattenError::NotADisk { euler, boundary_loops: loops.len() });
-    }
-    if mesh.n_components() != 1 {
-        return Err(FlattenError::Disconnected { components: mesh.n_components() });
-    }
-    let lp = &loops[0];
-    let nb = lp.len();
-    // Boundary vertex j is the tail of loop halfedge j; boundary edge j runs from j to j + 1.
-    let loop_vertices: Vec<usize> = lp.iter().map(|&h| mesh.tail(h).idx()).collect();
-    let lengths: Vec<f64> = lp.iter().map(|&h| mesh.vector(h).norm()).collect();
+    BffProblem::new(mesh, options)?.flatten(options.boundary_relief, options.boundary_smoothing)
+}
 
-    let geo = geometry(mesh, options.cotan_area_floor.max(0.0));
-    let b = blocks(mesh, &loop_vertices, &geo.weight)?;
-    let ni = b.n_interior;
-    let factor = if ni > 0 { Some(factor_interior(&b, options.max_regularization)?) } else { None };
-    let solve = |rhs: &mut [f64]| {
-        if let Some((f, _)) = &factor {
-            f.solve_in_place(rhs);
+/// BFF prepared on one disk: the interior Laplacian factored once and the target boundary
+/// curvature (Eqs. 1–2, closed by Gauss–Bonnet). Flattenings with different treatments of that
+/// curvature ([`BffOptions::boundary_relief`], [`BffOptions::boundary_smoothing`]) reuse the
+/// factor: [`crate::pieces`] tries up to 32 of them on a piece whose outline crosses itself.
+pub struct BffProblem<'m> {
+    mesh: &'m Mesh,
+    b: Blocks,
+    /// The factor of A_II and the diagonal shift it needed (none without interior vertices).
+    factor: Option<(CholeskyFactor, f64)>,
+    /// The log conformal scale factor at the interior vertices.
+    u: Vec<f64>,
+    /// Target boundary curvature per loop vertex (Σ = 2π).
+    kt: Vec<f64>,
+    /// Boundary edge lengths (edge j from loop vertex j to j + 1).
+    lengths: Vec<f64>,
+    /// Each boundary vertex's dual length: half of its two boundary edges.
+    dual: Vec<f64>,
+}
+
+impl<'m> BffProblem<'m> {
+    /// Factor the interior Laplacian (`options.cotan_area_floor`, `options.max_regularization`)
+    /// and compute the target boundary curvature; the boundary options are read by
+    /// [`BffProblem::flatten`].
+    ///
+    /// # Errors
+    /// As [`bff_flatten`].
+    pub fn new(mesh: &'m Mesh, options: &BffOptions) -> Result<Self, FlattenError> {
+        let euler = mesh.euler_characteristic();
+        let loops = mesh.boundary_loops();
+        if euler != 1 || loops.len() != 1 {
+            return Err(FlattenError::NotADisk { euler, boundary_loops: loops.len() });
         }
-    };
-
-    // Eq. 1 (K̃ = 0, u_B = 0): A_II u_I = −K_I.
-    let mut u = vec![0.0; ni];
-    for v in 0..mesh.n_vertices() {
-        if b.interior[v] != NONE {
-            u[b.interior[v]] = -(2.0 * PI - geo.angle_sum[v]);
+        if mesh.n_components() != 1 {
+            return Err(FlattenError::Disconnected { components: mesh.n_components() });
         }
-    }
-    solve(&mut u);
-    check_finite(&u, "the conformal scale factor")?;
+        let lp = &loops[0];
+        let nb = lp.len();
+        // Boundary vertex j is the tail of loop halfedge j; boundary edge j runs from j to j + 1.
+        let loop_vertices: Vec<usize> = lp.iter().map(|&h| mesh.tail(h).idx()).collect();
+        let lengths: Vec<f64> = lp.iter().map(|&h| mesh.vector(h).norm()).collect();
 
-    // Eq. 2: k̃_B = k_B + A_BI u_I, with A_bi = −w.
-    let mut kt: Vec<f64> = loop_vertices.iter().map(|&v| PI - geo.angle_sum[v]).collect();
-    for &(i, j, w) in &b.coupling {
-        kt[j] -= w * u[i];
-    }
-    check_finite(&kt, "the target boundary curvature")?;
-    // Curvature closing: Σ k̃ = 2π exactly (Gauss–Bonnet), residual spread by dual length.
-    let total_len: f64 = lengths.iter().sum();
-    // Each boundary vertex's dual length: half of its two boundary edges.
-    let dual: Vec<f64> = (0..nb).map(|j| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb])).collect();
-    let residual = 2.0 * PI - kt.iter().sum::<f64>();
-    for j in 0..nb {
-        kt[j] += residual * dual[j] / total_len;
-    }
-    tracing::debug!(residual, "BFF: curvature closing residual");
-    if let Some(r) = options.boundary_relief
-        && r.first < nb
-        && r.last < nb
-    {
-        let in_stretch =
-            |j: usize| if r.first <= r.last { (r.first..=r.last).contains(&j) } else { j >= r.first || j <= r.last };
-        let f = r.fraction.clamp(0.0, 1.0);
-        let removed: f64 = (0..nb).filter(|&j| in_stretch(j)).map(|j| f * kt[j]).sum();
-        let rest: f64 = (0..nb).filter(|&j| !in_stretch(j)).map(|j| dual[j]).sum();
-        if rest > 0.0 {
-            for j in 0..nb {
-                kt[j] = if in_stretch(j) { (1.0 - f) * kt[j] } else { kt[j] + removed * dual[j] / rest };
+        let geo = geometry(mesh, options.cotan_area_floor.max(0.0));
+        let b = blocks(mesh, &loop_vertices, &geo.weight)?;
+        let ni = b.n_interior;
+        let factor = if ni > 0 { Some(factor_interior(&b, options.max_regularization)?) } else { None };
+
+        // Eq. 1 (K̃ = 0, u_B = 0): A_II u_I = −K_I.
+        let mut u = vec![0.0; ni];
+        for v in 0..mesh.n_vertices() {
+            if b.interior[v] != NONE {
+                u[b.interior[v]] = -(2.0 * PI - geo.angle_sum[v]);
             }
         }
-    }
-    if options.boundary_smoothing > 0.0 {
-        kt = smooth_boundary_curvature(&kt, &lengths, &dual, options.boundary_smoothing * total_len * total_len)?;
-    }
-
-    // Eq. 3: tangents, closed lengths, boundary curve.
-    let mut tangents = Vec::with_capacity(nb);
-    let mut phi = 0.0;
-    for j in 0..nb {
-        if j > 0 {
-            phi += kt[j];
+        if let Some((f, _)) = &factor {
+            f.solve_in_place(&mut u);
         }
-        tangents.push(Vec2::new(phi.cos(), phi.sin()));
-    }
-    // M = T N⁻¹ Tᵀ = Σ ℓ_j T_j T_jᵀ, r = T ℓ*.
-    let (mut m00, mut m01, mut m11, mut r) = (0.0, 0.0, 0.0, Vec2::zeros());
-    for j in 0..nb {
-        let (t, l) = (tangents[j], lengths[j]);
-        m00 += l * t.x * t.x;
-        m01 += l * t.x * t.y;
-        m11 += l * t.y * t.y;
-        r += l * t;
-    }
-    let det = m00 * m11 - m01 * m01;
-    let trace = m00 + m11;
-    if !(det > 1e-14 * trace * trace) {
-        return Err(FlattenError::Degenerate {
-            reason: format!("the boundary tangents cannot close a curve (det T N⁻¹ Tᵀ = {det:e})"),
-        });
-    }
-    let lambda = Vec2::new(m11 * r.x - m01 * r.y, m00 * r.y - m01 * r.x) / det;
-    let closed: Vec<f64> = (0..nb).map(|j| lengths[j] - lengths[j] * tangents[j].dot(&lambda)).collect();
-    if let Some(j) = closed.iter().position(|&l| !(l > 0.0)) {
-        tracing::warn!(edge = j, length = closed[j], "BFF: a closed boundary length is not positive");
-    }
-    let mut xb = vec![Vec2::zeros(); nb];
-    for j in 1..nb {
-        xb[j] = xb[j - 1] + closed[j - 1] * tangents[j - 1];
+        check_finite(&u, "the conformal scale factor")?;
+
+        // Eq. 2: k̃_B = k_B + A_BI u_I, with A_bi = −w.
+        let mut kt: Vec<f64> = loop_vertices.iter().map(|&v| PI - geo.angle_sum[v]).collect();
+        for &(i, j, w) in &b.coupling {
+            kt[j] -= w * u[i];
+        }
+        check_finite(&kt, "the target boundary curvature")?;
+        // Curvature closing: Σ k̃ = 2π exactly (Gauss–Bonnet), residual spread by dual length.
+        let total_len: f64 = lengths.iter().sum();
+        let dual: Vec<f64> = (0..nb).map(|j| 0.5 * (lengths[j] + lengths[(j + nb - 1) % nb])).collect();
+        let residual = 2.0 * PI - kt.iter().sum::<f64>();
+        for j in 0..nb {
+            kt[j] += residual * dual[j] / total_len;
+        }
+        tracing::debug!(residual, "BFF: curvature closing residual");
+        Ok(Self { mesh, b, factor, u, kt, lengths, dual })
     }
 
-    // Eq. 4: harmonic extension A_II x_I = −A_IB x_B (A_ib = −w).
-    let (mut xi, mut yi) = (vec![0.0; ni], vec![0.0; ni]);
-    for &(i, j, w) in &b.coupling {
-        xi[i] += w * xb[j].x;
-        yi[i] += w * xb[j].y;
+    /// The flattening with the target boundary curvature relieved and smoothed as
+    /// [`BffOptions::boundary_relief`] and [`BffOptions::boundary_smoothing`] say (`None`, 0:
+    /// as BFF gives it).
+    ///
+    /// # Errors
+    /// [`FlattenError::Degenerate`] if non-finite values appear or the boundary cannot be
+    /// closed.
+    pub fn flatten(&self, relief: Option<BoundaryRelief>, smoothing: f64) -> Result<Flattening, FlattenError> {
+        let (mesh, b, lengths, dual) = (self.mesh, &self.b, &self.lengths, &self.dual);
+        let (nb, ni) = (lengths.len(), b.n_interior);
+        let total_len: f64 = lengths.iter().sum();
+        let solve = |rhs: &mut [f64]| {
+            if let Some((f, _)) = &self.factor {
+                f.solve_in_place(rhs);
+            }
+        };
+        let mut kt = self.kt.clone();
+        if let Some(r) = relief
+            && r.first < nb
+            && r.last < nb
+        {
+            let in_stretch = |j: usize| {
+                if r.first <= r.last { (r.first..=r.last).contains(&j) } else { j >= r.first || j <= r.last }
+            };
+            let f = r.fraction.clamp(0.0, 1.0);
+            let removed: f64 = (0..nb).filter(|&j| in_stretch(j)).map(|j| f * kt[j]).sum();
+            let rest: f64 = (0..nb).filter(|&j| !in_stretch(j)).map(|j| dual[j]).sum();
+            if rest > 0.0 {
+                for j in 0..nb {
+                    kt[j] = if in_stretch(j) { (1.0 - f) * kt[j] } else { kt[j] + removed * dual[j] / rest };
+                }
+            }
+        }
+        if smoothing > 0.0 {
+            kt = smooth_boundary_curvature(&kt, lengths, dual, smoothing * total_len * total_len)?;
+        }
+
+        // Eq. 3: tangents, closed lengths, boundary curve.
+        let mut tangents = Vec::with_capacity(nb);
+        let mut phi = 0.0;
+        for j in 0..nb {
+            if j > 0 {
+                phi += kt[j];
+            }
+            tangents.push(Vec2::new(phi.cos(), phi.sin()));
+        }
+        // M = T N⁻¹ Tᵀ = Σ ℓ_j T_j T_jᵀ, r = T ℓ*.
+        let (mut m00, mut m01, mut m11, mut r) = (0.0, 0.0, 0.0, Vec2::zeros());
+        for j in 0..nb {
+            let (t, l) = (tangents[j], lengths[j]);
+            m00 += l * t.x * t.x;
+            m01 += l * t.x * t.y;
+            m11 += l * t.y * t.y;
+            r += l * t;
+        }
+        let det = m00 * m11 - m01 * m01;
+        let trace = m00 + m11;
+        if !(det > 1e-14 * trace * trace) {
+            return Err(FlattenError::Degenerate {
+                reason: format!("the boundary tangents cannot close a curve (det T N⁻¹ Tᵀ = {det:e})"),
+            });
+        }
+        let lambda = Vec2::new(m11 * r.x - m01 * r.y, m00 * r.y - m01 * r.x) / det;
+        let closed: Vec<f64> = (0..nb).map(|j| lengths[j] - lengths[j] * tangents[j].dot(&lambda)).collect();
+        if let Some(j) = closed.iter().position(|&l| !(l > 0.0)) {
+            tracing::warn!(edge = j, length = closed[j], "BFF: a closed boundary length is not positive");
+        }
+        let mut xb = vec![Vec2::zeros(); nb];
+        for j in 1..nb {
+            xb[j] = xb[j - 1] + closed[j - 1] * tangents[j - 1];
+        }
+
+        // Eq. 4: harmonic extension A_II x_I = −A_IB x_B (A_ib = −w).
+        let (mut xi, mut yi) = (vec![0.0; ni], vec![0.0; ni]);
+        for &(i, j, w) in &b.coupling {
+            xi[i] += w * xb[j].x;
+            yi[i] += w * xb[j].y;
+        }
+        solve(&mut xi);
+        solve(&mut yi);
+        check_finite(&xi, "the interior x coordinate")?;
+        check_finite(&yi, "the interior y coordinate")?;
+
+        let mut uv: VertexData<Vec2> = mesh
+            .vertices()
+            .map(|v| {
+                let (i, j) = (b.interior[v.idx()], b.boundary[v.idx()]);
+                if i != NONE { Vec2::new(xi[i], yi[i]) } else { xb[j] }
+            })
+            .collect();
+        let mean = uv.iter().sum::<Vec2>() / uv.len().max(1) as f64;
+        uv.iter_mut().for_each(|p| *p -= mean);
+
+        let stats = distortion(mesh, &uv);
+        tracing::debug!(
+            vertices = mesh.n_vertices(),
+            interior = ni,
+            boundary = nb,
+            regularization = self.factor.as_ref().map_or(0.0, |f| f.1),
+            u_min = self.u.iter().copied().fold(0.0, f64::min),
+            ?stats,
+            "BFF flattening"
+        );
+        Ok(Flattening { uv, stats })
     }
-    solve(&mut xi);
-    solve(&mut yi);
-    check_finite(&xi, "the interior x coordinate")?;
-    check_finite(&yi, "the interior y coordinate")?;
-
-    let mut uv: VertexData<Vec2> = mesh
-        .vertices()
-        .map(|v| {
-            let (i, j) = (b.interior[v.idx()], b.boundary[v.idx()]);
-            if i != NONE { Vec2::new(xi[i], yi[i]) } else { xb[j] }
-        })
-        .collect();
-    let mean = uv.iter().sum::<Vec2>() / uv.len().max(1) as f64;
-    uv.iter_mut().for_each(|p| *p -= mean);
-
-    let stats = distortion(mesh, &uv);
-    tracing::debug!(
-        vertices = mesh.n_vertices(),
-        interior = ni,
-        boundary = nb,
-        regularization = factor.as_ref().map_or(0.0, |f| f.1),
-        u_min = u.iter().copied().fold(0.0, f64::min),
-        ?stats,
-        "BFF flattening"
-    );
-    Ok(Flattening { uv, stats })
 }
 
 /// Singular values σ1 ≥ σ2 ≥ 0 of a 2×2 matrix [[a, b], [c, d]] (closed form).

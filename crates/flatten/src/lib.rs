@@ -29,7 +29,7 @@ pub mod bff;
 pub mod error;
 pub mod pieces;
 
-pub use bff::{BffOptions, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
+pub use bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 pub use error::FlattenError;
 pub use pieces::{
     FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, OutlineRepair, PieceFlattening, PieceReport,

@@ -33,7 +33,7 @@
 //!
 //! Complexity: one sparse factorization per patch (BFF), O(F) otherwise.
 
-use crate::bff::{BffOptions, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
+use crate::bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 use crate::error::FlattenError;
 use clothcast_layout::Segmentation;
 use clothcast_layout::cutgraph::cut_open;
@@ -555,9 +555,11 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
     let crossing = outline_crossing(&flat.uv, &outline);
     if let Some((i, j)) = crossing {
         // A candidate re-flattening is taken if its outline is simple with no more flipped
-        // triangles (after untangling).
-        let try_with = |o: &BffOptions| -> Option<(Flattening, usize)> {
-            let mut f2 = bff_flatten(pm, o).ok()?;
+        // triangles (after untangling). The candidates change only the boundary curvature:
+        // the interior Laplacian is factored once for all of them.
+        let problem = BffProblem::new(pm, bff).ok();
+        let try_with = |relief: Option<BoundaryRelief>, smoothing: f64| -> Option<(Flattening, usize)> {
+            let mut f2 = problem.as_ref()?.flatten(relief, smoothing).ok()?;
             let moved = untangle_flattening(pm, &mut f2);
             (f2.stats.flipped_triangles <= flat.stats.flipped_triangles && outline_crossing(&f2.uv, &outline).is_none())
                 .then_some((f2, moved))
@@ -579,14 +581,12 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
             if arc((i + 1) % n, j) <= arc((j + 1) % n, i) { ((i + 1) % n, j) } else { ((j + 1) % n, i) };
         let uncurled = RELIEF_FRACTIONS.iter().find_map(|&fraction| {
             let relief = BoundaryRelief { first, last, fraction };
-            try_with(&BffOptions { boundary_relief: Some(relief), ..bff.clone() })
-                .map(|r| (r, OutlineRepair::Uncurled(relief)))
+            try_with(Some(relief), bff.boundary_smoothing).map(|r| (r, OutlineRepair::Uncurled(relief)))
         });
         // Then, if that does not do, the whole boundary curvature is smoothed.
         let repaired = uncurled.or_else(|| {
             OUTLINE_SMOOTHING.iter().find_map(|&smoothing| {
-                try_with(&BffOptions { boundary_smoothing: smoothing, ..bff.clone() })
-                    .map(|r| (r, OutlineRepair::Smoothed { smoothing }))
+                try_with(bff.boundary_relief, smoothing).map(|r| (r, OutlineRepair::Smoothed { smoothing }))
             })
         });
         if let Some(((f2, moved), how)) = repaired {

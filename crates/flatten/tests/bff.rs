@@ -452,3 +452,26 @@ fn boundary_relief_straightens_its_stretch() {
     }
     assert_eq!(fl.stats.flipped_triangles, 0);
 }
+
+/// A prepared problem (one factorization) gives exactly the flattenings of `bff_flatten` with
+/// the same boundary options, for any number of them.
+#[test]
+fn a_prepared_problem_reuses_its_factor_for_every_boundary_treatment() {
+    use clothcast_flatten::{BffProblem, BoundaryRelief};
+    let m = shapes::grid(16, 9, 1.5, 0.8);
+    let opts = BffOptions::default();
+    let problem = BffProblem::new(&m, &opts).unwrap();
+    // A stretch of outline around a corner of the rectangle (the sides have no turning).
+    let lp: Vec<_> = m.boundary_loops()[0].iter().map(|&h| m.tail(h)).collect();
+    let corner = (0..lp.len()).find(|&j| m.position(lp[j]) == clothcast_mesh::Vec3::new(1.5, 0.8, 0.0)).unwrap();
+    let n = lp.len();
+    let relief = Some(BoundaryRelief { first: (corner + n - 2) % n, last: (corner + 2) % n, fraction: 0.4 });
+    for (relief, smoothing) in [(None, 0.0), (relief, 0.0), (None, 1e-3), (relief, 1e-2)] {
+        let once = problem.flatten(relief, smoothing).unwrap();
+        let fresh =
+            bff_flatten(&m, &BffOptions { boundary_relief: relief, boundary_smoothing: smoothing, ..opts.clone() })
+                .unwrap();
+        assert!(once.uv == fresh.uv, "{relief:?} {smoothing}");
+    }
+    assert!(problem.flatten(None, 0.0).unwrap().uv != problem.flatten(relief, 0.0).unwrap().uv);
+}

@@ -16,7 +16,10 @@
 //! **Sweep.** Faces sorted by the Fiedler value; every prefix with 15–85% of the area is a
 //! candidate, scored by its normalized cut `cut(S, S̄) (1/vol S + 1/vol S̄)`, computed
 //! incrementally. Candidates are tried best first; the first whose two sides are both
-//! topological disks wins (so the new seam is one boundary-to-boundary path).
+//! topological disks wins (so the new seam is one boundary-to-boundary path). When none does
+//! because a side falls in several parts (the level sets of a patch bent over a crease, or
+//! U-shaped), the candidates are tried again with a side's largest part against the rest of
+//! the patch.
 //!
 //! **Field-aligned cut.** The sweep decides *where* to cut; the seam itself is then traced along
 //! the field from the middle of the sweep's interface to the patch boundary in both directions
@@ -59,8 +62,8 @@ pub struct Split {
 }
 
 /// Split the patch `faces` (sorted; the region of label `label(faces[0])`) in two disks.
-/// `density` is the per-vertex hinge density ρ_v (1/m²). Returns `None` when no sweep cut
-/// gives two disks.
+/// `density` is the per-vertex hinge density ρ_v (1/m²). Returns `None` when no sweep cut, nor
+/// a side's largest part against the rest, gives two disks.
 #[allow(clippy::too_many_arguments)]
 pub fn spectral_split(
     mesh: &Mesh,
@@ -225,8 +228,12 @@ pub fn spectral_split(
             if !(MIN_SIDE..=1.0 - MIN_SIDE).contains(&(largest.0 / total_area)) {
                 continue;
             }
-            let rest: Vec<FaceId> = faces.iter().copied().filter(|f| largest.1.binary_search(f).is_err()).collect();
-            if let Some(split) = two_disks(largest.1, rest, ncut_of(k)) {
+            let in_part: Vec<bool> = faces.iter().map(|f| largest.1.binary_search(f).is_ok()).collect();
+            let rest: Vec<FaceId> = faces.iter().zip(&in_part).filter(|&(_, &p)| !p).map(|(&f, _)| f).collect();
+            let cut: f64 = arcs.iter().filter(|&&(i, j, _)| in_part[i] != in_part[j]).map(|&(_, _, w)| w).sum();
+            let vol_part: f64 = degree.iter().zip(&in_part).filter(|&(_, &p)| p).map(|(d, _)| d).sum();
+            let ncut = cut * (1.0 / vol_part + 1.0 / (vol - vol_part));
+            if let Some(split) = two_disks(largest.1, rest, ncut) {
                 return Ok(Some(split));
             }
         }
@@ -373,4 +380,38 @@ pub fn field_aligned_split(
     let info_a = region_info(mesh, &a, &side_label, seam, rule);
     let info_b = region_info(mesh, &b, &side_label, seam, rule);
     (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: split.ncut })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clothcast_mesh::shapes;
+
+    /// Parts connected across edges that are not cut, in the order of their first face.
+    #[test]
+    fn connected_parts_follow_the_cut() {
+        // A 6 × 2 grid strip: 24 faces, columns of 4 faces.
+        let m = shapes::grid(6, 2, 6.0, 2.0);
+        let column = |f: FaceId| {
+            let c = m.face_positions(f).iter().map(|p| p.x).sum::<f64>() / 3.0;
+            c.floor() as usize
+        };
+        let all: Vec<FaceId> = m.face_ids().collect();
+        assert_eq!(connected_parts(&m, &all, &|_| false).len(), 1);
+        // Columns 0–1 and 4–5 without the middle: two parts.
+        let ends: Vec<FaceId> = all.iter().copied().filter(|&f| !(2..4).contains(&column(f))).collect();
+        let parts = connected_parts(&m, &ends, &|_| false);
+        assert_eq!(parts.len(), 2);
+        assert!(parts[0].iter().all(|&f| column(f) < 2) && parts[1].iter().all(|&f| column(f) >= 4));
+        assert_eq!(parts[0].len() + parts[1].len(), ends.len());
+        // Cutting along x = 3 splits the whole strip in two halves.
+        let cut = |e: EdgeId| {
+            let [a, b] = m.edge_vertices(e);
+            m.position(a).x == 3.0 && m.position(b).x == 3.0
+        };
+        let halves = connected_parts(&m, &all, &cut);
+        assert_eq!(halves.iter().map(Vec::len).collect::<Vec<_>>(), vec![12, 12]);
+        assert_eq!(two_sides(&m, &all, &cut).map(|(a, b)| (a.len(), b.len())), Some((12, 12)));
+        assert!(two_sides(&m, &all, &|_| false).is_none());
+    }
 }

@@ -5,7 +5,7 @@
 //! that names every problem ([`validate`]), opt-in repair ([`repair`]), mesh files
 //! ([`io`]: OBJ, PLY, STL, OFF in; OBJ and PLY with custom properties out; atomic writes),
 //! discrete geometry ([`geometry`]: areas, normals, angles, curvature, cotan Laplacian, mass,
-//! frames), submeshes ([`submesh`]), uniform midpoint refinement ([`subdivide`]), coarse versions and closest points ([`simplify`]), sparse
+//! frames), submeshes ([`submesh`]), refinement by longest-edge bisection ([`subdivide`]), coarse versions and closest points ([`simplify`]), sparse
 //! Cholesky with symbolic reuse ([`sparse`]) and generated shapes including the built-in
 //! example ([`shapes`]).
 //!

@@ -47,8 +47,9 @@ impl Mesh {
         Self::try_from_soup(&TriSoup::from_triangles(positions, triangles))
     }
 
-    /// Connectivity construction; the soup must already be valid.
-    fn build_unchecked(positions: Vec<Vec3>, triangles: &[[u32; 3]]) -> Self {
+    /// Connectivity construction; the soup must already be valid (used directly where validity
+    /// holds by construction, such as [`crate::subdivide`]'s bisections of a valid mesh).
+    pub(crate) fn build_unchecked(positions: Vec<Vec3>, triangles: &[[u32; 3]]) -> Self {
         let nf = triangles.len();
         let nv = positions.len();
         let groups = group_edges(triangles, |_| true);

@@ -90,6 +90,8 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // the roll, up to `ROLL_RETRIES` times.
     let mut hints: Vec<SplitHint> = Vec::new();
     let mut retries = 0;
+    // The pieces too wide last time, and how many layouts in a row have given the same.
+    let (mut last_too_wide, mut repeats): (Vec<(u32, f64)>, usize) = (Vec::new(), 0);
     // Time of every layout made, and of the flattening and patterns of the ones redone.
     let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
@@ -112,8 +114,11 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 redone_seconds += attempt.elapsed().as_secs_f64();
                 // The same pieces may come back (the layout measures a patch before its seams
                 // are straightened, which can widen it): their hints are then cut further, so
-                // every new layout asks more, up to ROLL_RETRIES.
-                if retries == ROLL_RETRIES {
+                // every new layout asks more, up to ROLL_RETRIES. The same pieces a third time
+                // in a row: the layout could not split them (too few faces, or no cut into two
+                // disks), and it would not next time either.
+                repeats = if pieces == last_too_wide { repeats + 1 } else { 0 };
+                if retries == ROLL_RETRIES || repeats >= 2 {
                     stages::segmentation::write_outputs(&args.out, &input, &seg)?;
                     return Err(Failure::Input(anyhow::anyhow!(
                         "{e} (after {} layout(s) splitting the pieces too wide: a patch with too few faces, or one no cut \
@@ -133,7 +138,9 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                     // A piece too wide again after a hint on its region: the layout measures the
                     // patch before its seams are straightened and re-routed, which can make it
                     // wider, so the hint's own extent is cut further (by the same factor), not
-                    // replaced by one that the older, smaller one overrides.
+                    // replaced by one that the older, smaller one overrides. (A large new piece
+                    // holding half of a small earlier hint's faces inherits its extent too; the
+                    // layout already keeps merges within it there.)
                     let earlier = hints
                         .iter()
                         .filter(|h| {
@@ -145,6 +152,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                     let max_extent = (patch_extent(&seg.mesh, &own) * shrink).min(earlier * shrink);
                     hints.push(SplitHint { faces, max_extent });
                 }
+                last_too_wide = pieces;
                 retries += 1;
                 progress.say(format!("{e}: laying the patches out again with those split (layout {})", retries + 1));
             }

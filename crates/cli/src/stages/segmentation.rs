@@ -19,16 +19,11 @@ const EXTENT_ALLOWANCE: f64 = 1.25;
 /// The most pieces a roll may take before its width is refused as too narrow.
 const MAX_PIECES: usize = 250;
 
-/// The roll's width less the seam allowance on both sides of a piece (metres).
-pub fn usable_width_m(cfg: &Config) -> f64 {
-    (cfg.pattern.fabric_width_mm - 2.0 * cfg.pattern.seam_allowance_mm) / 1000.0
-}
-
 /// True when the roll is so narrow that a mold of this area would take hundreds of pieces
 /// (every piece at most about a disk as wide as the roll): a mistake in the scenario, refused
 /// by [`run`].
 pub fn roll_too_narrow(cfg: &Config, area_m2: f64) -> bool {
-    let usable = usable_width_m(cfg);
+    let usable = cfg.pattern.usable_width_m();
     let least = area_m2 / (std::f64::consts::FRAC_PI_4 * (EXTENT_ALLOWANCE * usable).powi(2));
     !(usable > 0.0) || least > MAX_PIECES as f64
 }
@@ -54,7 +49,7 @@ pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
         // patch's extent (its longest path) bounds its piece's width across the roll from
         // above, by more the less round it is; pieces that still do not fit once flattened are
         // split in a new layout (the `run` command).
-        max_patch_extent: (usable_width_m(cfg) * EXTENT_ALLOWANCE).max(0.0),
+        max_patch_extent: (cfg.pattern.usable_width_m() * EXTENT_ALLOWANCE).max(0.0),
         split_hints: hints.to_vec(),
         seed: cfg.seed,
     }
@@ -69,7 +64,7 @@ pub fn run(
     progress: &Progress,
 ) -> Result<Segmentation, Failure> {
     let (w, a) = (cfg.pattern.fabric_width_mm, cfg.pattern.seam_allowance_mm);
-    let usable = usable_width_m(cfg);
+    let usable = cfg.pattern.usable_width_m();
     let area = input.mesh.total_area();
     if roll_too_narrow(cfg, area) {
         return Err(Failure::Input(anyhow::anyhow!(
