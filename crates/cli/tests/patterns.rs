@@ -55,10 +55,12 @@ fn check_run(out: &Path) -> Value {
         "orientation",
         "outlines_repaired",
         "outlines_not_simple",
+        "distorted_pieces",
         "seconds",
     ] {
         assert!(!fl[k].is_null(), "flattening.{k} missing");
     }
+    assert!(fl["distorted_pieces"].as_array().unwrap().is_empty(), "{fl}");
     assert_eq!(fl["outlines_not_simple"], 0);
     let pt = &s["patterns"];
     for k in ["pieces", "seams", "notches", "fabric_width_mm", "fabric_length_mm", "utilisation", "files", "seconds"] {
@@ -203,6 +205,35 @@ fn a_patch_over_a_crease_is_split_to_fit_the_roll() {
     assert!(s["input"]["refinement_splits"].as_u64().unwrap() > 0);
     assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
     assert_eq!(cut_pieces(&out) as u64, s["patterns"]["pieces"].as_u64().unwrap());
+}
+
+/// The table top of a CAD model (0.16° slivers, box corners): pieces that the fabric cannot
+/// follow are named in a warning and in `flattening.distorted_pieces`; smooth models have none.
+#[test]
+fn badly_distorted_pieces_are_reported() {
+    let out = tmpdir("table");
+    let table = data("multi/wooden_table_02.obj");
+    let o = run(&[
+        "run",
+        table.to_str().unwrap(),
+        "--largest-component",
+        "--height",
+        "0.5",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let s = summary(&out);
+    let distorted = s["flattening"]["distorted_pieces"].as_array().unwrap();
+    assert!(!distorted.is_empty(), "{}", s["flattening"]);
+    assert!(
+        text(&o).contains(&format!("piece {} (P{}) is badly distorted", distorted[0], distorted[0])),
+        "{}",
+        text(&o)
+    );
+    let smooth = run_scaled("sphere-distortion", "closed/sphere.obj", "0.5", &[]);
+    assert_eq!(summary(&smooth)["flattening"]["distorted_pieces"].as_array().unwrap().len(), 0);
 }
 
 #[test]

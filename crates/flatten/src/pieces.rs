@@ -143,6 +143,11 @@ pub struct FlattenReport {
     pub outlines_repaired: usize,
     /// Pieces whose outline still crosses itself (the pattern stage refuses them).
     pub outlines_not_simple: usize,
+    /// Patch ids of the pieces whose flattening is badly distorted: an area-weighted mean
+    /// quasi-conformal ratio above [`DISTORTED_QC_MEAN`], or per-face area ratios further apart
+    /// than [`DISTORTED_AREA_SPREAD`] (the fabric cannot follow the target there; a sharp corner
+    /// or sliver triangles inside the piece are the usual cause).
+    pub distorted_pieces: Vec<u32>,
     /// Total 2D / 3D area straight out of BFF (before the common scale).
     pub area_ratio_bff: f64,
     /// The common scale applied to all pieces (1 when `match_area` is off).
@@ -150,6 +155,13 @@ pub struct FlattenReport {
     /// Seconds.
     pub seconds: f64,
 }
+
+/// A piece is reported as badly distorted above this area-weighted mean quasi-conformal ratio
+/// (the six README models' pieces stay below 1.13).
+pub const DISTORTED_QC_MEAN: f64 = 1.25;
+/// … or when its largest per-face area ratio exceeds its smallest by this factor (the README
+/// models: at most 10.4, camelhead around its 0.55° input slivers).
+pub const DISTORTED_AREA_SPREAD: f64 = 50.0;
 
 /// Flattening figures of one piece (an entry of `flattening.per_piece` in `summary.json`).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -331,6 +343,14 @@ pub fn flatten_segmentation(
             flipped_triangles: q.stats.flipped_triangles,
             fiber_alignment_median_deg: q.fiber_deviation_median_deg,
         })
+        .collect();
+    report.distorted_pieces = report
+        .per_piece
+        .iter()
+        .filter(|p| {
+            !(p.qc_mean <= DISTORTED_QC_MEAN && p.area_ratio_max <= DISTORTED_AREA_SPREAD * p.area_ratio_min.max(0.0))
+        })
+        .map(|p| p.patch)
         .collect();
     report.fiber_alignment_other_rule_deg = weighted_median(all_other);
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());

@@ -114,6 +114,17 @@ pub fn run(
         r.seconds
     ));
 
+    for p in r.per_piece.iter().filter(|p| r.distorted_pieces.contains(&p.patch)) {
+        tracing::warn!(
+            "piece {id} (P{id}) is badly distorted once flattened (area ratio {:.3}–{:.1}, mean quasi-conformal ratio \
+             {:.2}): the fabric cannot follow the target there; a sharp corner or sliver triangles inside the piece are \
+             the usual cause (round or remesh the target there)",
+            p.area_ratio_min,
+            p.area_ratio_max,
+            p.qc_mean,
+            id = p.patch
+        );
+    }
     let stage = progress.stage("building the patterns");
     let t1 = Instant::now();
     let marks = marks_per_piece(cfg, input, seg, &flat)?;
