@@ -89,6 +89,11 @@ pub struct BffOptions {
     /// corners stay as sharp). Used to uncurl a stretch of outline that loops over itself
     /// ([`crate::pieces`]). `None` (the default): the curvature as BFF gives it.
     pub boundary_relief: Option<BoundaryRelief>,
+    /// Build the Laplacian on the intrinsic Delaunay triangulation of the patch (the same
+    /// surface and vertices, its edges flipped in its own metric until every cotan weight is
+    /// non-negative) instead of the mesh's own edges. Default `false`; [`crate::pieces`] uses
+    /// it on a piece whose flattening came out badly distorted (sliver triangles).
+    pub intrinsic_delaunay: bool,
 }
 
 /// A stretch of boundary whose turning is reduced ([`BffOptions::boundary_relief`]).
@@ -104,7 +109,13 @@ pub struct BoundaryRelief {
 
 impl Default for BffOptions {
     fn default() -> Self {
-        Self { cotan_area_floor: 1e-10, max_regularization: 1e-6, boundary_smoothing: 0.0, boundary_relief: None }
+        Self {
+            cotan_area_floor: 1e-10,
+            max_regularization: 1e-6,
+            boundary_smoothing: 0.0,
+            boundary_relief: None,
+            intrinsic_delaunay: false,
+        }
     }
 }
 
@@ -194,8 +205,8 @@ struct Blocks {
 
 const NONE: usize = usize::MAX;
 
-fn blocks(mesh: &Mesh, loop_vertices: &[usize], weight: &[f64]) -> Result<Blocks, FlattenError> {
-    let nv = mesh.n_vertices();
+/// `edges`: the Laplacian's edges as (a, b, cotan weight), vertices by index.
+fn blocks(nv: usize, loop_vertices: &[usize], edges: &[(usize, usize, f64)]) -> Result<Blocks, FlattenError> {
     let mut boundary = vec![NONE; nv];
     for (j, &v) in loop_vertices.iter().enumerate() {
         if boundary[v] != NONE {
@@ -212,9 +223,8 @@ fn blocks(mesh: &Mesh, loop_vertices: &[usize], weight: &[f64]) -> Result<Blocks
         }
     }
     let mut entries = Vec::new();
-    for e in mesh.edges() {
-        let [a, b] = mesh.edge_vertices(e);
-        let (ia, ib) = (interior[a.idx()], interior[b.idx()]);
+    for &(a, b, _) in edges {
+        let (ia, ib) = (interior[a], interior[b]);
         if ia != NONE && ib != NONE {
             entries.push((ia, ib));
         }
@@ -222,9 +232,7 @@ fn blocks(mesh: &Mesh, loop_vertices: &[usize], weight: &[f64]) -> Result<Blocks
     let pattern = SymmetricPattern::from_entries(n_interior, entries);
     let mut values = vec![0.0; pattern.nnz()];
     let mut coupling = Vec::new();
-    for e in mesh.edges() {
-        let w = weight[e.idx()];
-        let [a, b] = mesh.edge_vertices(e).map(|v| v.idx());
+    for &(a, b, w) in edges {
         match (interior[a], interior[b]) {
             (NONE, NONE) => {}
             (ia, NONE) => {
@@ -243,6 +251,62 @@ fn blocks(mesh: &Mesh, loop_vertices: &[usize], weight: &[f64]) -> Result<Blocks
         }
     }
     Ok(Blocks { interior, boundary, n_interior, pattern, values, coupling })
+}
+
+/// The cotan weights of the intrinsic Delaunay triangulation of the mesh (Bobenko &
+/// Springborn 2007): interior edges flipped, in the mesh's own metric, until every one is
+/// locally Delaunay (its two opposite angles sum to at most π), so that every weight is
+/// non-negative and the harmonic maps of BFF keep the maximum principle, whatever the
+/// triangle shapes (obtuse slivers make negative cotan weights, and the extrinsic Laplacian
+/// then folds or shears the map). Same vertices, same boundary; the edges are (a, b, w), a
+/// Δ-complex's parallel edges each listed (their weights add up in the matrix).
+fn intrinsic_delaunay_weights(mesh: &Mesh) -> Vec<(usize, usize, f64)> {
+    use clothcast_layout::intrinsic::IntrinsicTriangulation;
+    let mut t = IntrinsicTriangulation::from_mesh(mesh);
+    let opposite = |t: &IntrinsicTriangulation, h: usize| t.corner_angle(t.prev(h));
+    let mut stack: Vec<usize> = (0..t.n_edges()).rev().collect();
+    let mut queued = vec![true; t.n_edges()];
+    // Each flip raises the triangulation's smallest angles (Lawson), so this ends; the cap is
+    // a guard against round-off cycling on (near-)cocircular quads.
+    let mut budget = 50 * t.n_edges() + 100;
+    while let Some(e) = stack.pop() {
+        queued[e] = false;
+        if t.is_boundary_edge(e) || budget == 0 {
+            continue;
+        }
+        let h = t.edge_halfedge(e);
+        let w = t.twin(h);
+        if opposite(&t, h) + opposite(&t, w) <= PI + 1e-12 || !t.flip_edge(e, 1e-7) {
+            continue;
+        }
+        budget -= 1;
+        let h = t.edge_halfedge(e);
+        let w = t.twin(h);
+        for x in [t.next(h), t.prev(h), t.next(w), t.prev(w)] {
+            let f = t.edge(x);
+            if !queued[f] {
+                queued[f] = true;
+                stack.push(f);
+            }
+        }
+    }
+    (0..t.n_edges())
+        .filter_map(|e| {
+            let h = t.edge_halfedge(e);
+            let (a, b) = (t.tail(h), t.head(h));
+            if a == b {
+                return None; // a loop edge adds nothing to the Laplacian
+            }
+            let cot = |h: usize| {
+                if !t.is_interior(h) {
+                    return 0.0;
+                }
+                let c = 1.0 / opposite(&t, h).tan();
+                if c.is_finite() { c } else { 0.0 }
+            };
+            Some((a, b, 0.5 * (cot(h) + cot(t.twin(h)))))
+        })
+        .collect()
 }
 
 /// Factor A_II, adding the smallest diagonal shift (relative to the mean |diagonal|) that
@@ -366,7 +430,17 @@ impl<'m> BffProblem<'m> {
         let lengths: Vec<f64> = lp.iter().map(|&h| mesh.vector(h).norm()).collect();
 
         let geo = geometry(mesh, options.cotan_area_floor.max(0.0));
-        let b = blocks(mesh, &loop_vertices, &geo.weight)?;
+        let edges: Vec<(usize, usize, f64)> = if options.intrinsic_delaunay {
+            intrinsic_delaunay_weights(mesh)
+        } else {
+            mesh.edges()
+                .map(|e| {
+                    let [a, b] = mesh.edge_vertices(e).map(|v| v.idx());
+                    (a, b, geo.weight[e.idx()])
+                })
+                .collect()
+        };
+        let b = blocks(mesh.n_vertices(), &loop_vertices, &edges)?;
         let ni = b.n_interior;
         let factor = if ni > 0 { Some(factor_interior(&b, options.max_regularization)?) } else { None };
 
@@ -577,6 +651,41 @@ pub fn distortion(mesh: &Mesh, uv: &VertexData<Vec2>) -> FlatteningStats {
 mod tests {
     use super::*;
     use clothcast_mesh::shapes;
+
+    /// On a Delaunay mesh the intrinsic weights are the mesh's own; where obtuse triangles make
+    /// a weight negative, the flips leave none negative (same vertices).
+    #[test]
+    fn intrinsic_delaunay_weights_are_non_negative() {
+        let extrinsic = |m: &Mesh| {
+            let g = geometry(m, 0.0);
+            m.edges().map(|e| (m.edge_vertices(e).map(|v| v.idx()), g.weight[e.idx()])).collect::<Vec<_>>()
+        };
+        let sphere = shapes::icosphere(2, 1.0);
+        let idt = intrinsic_delaunay_weights(&sphere);
+        for ([a, b], w) in extrinsic(&sphere) {
+            let mine = idt.iter().find(|&&(x, y, _)| (x, y) == (a, b) || (x, y) == (b, a)).unwrap().2;
+            assert!((mine - w).abs() < 1e-12 * w.abs().max(1.0), "{a}-{b}: {mine} against {w}");
+        }
+        // A bumpy grid whose middle row is pushed sideways: obtuse triangles.
+        let mut m = shapes::grid(8, 8, 1.0, 1.0);
+        let p: Vec<_> = m
+            .positions()
+            .iter()
+            .map(|q| {
+                let mut q = *q;
+                if (q.y - 0.5).abs() < 1e-9 {
+                    q.x += 0.06 * (q.x * 40.0).sin();
+                    q.y += 0.05;
+                }
+                q.z = 0.3 * (3.0 * q.x).sin() * (2.0 * q.y).cos();
+                q
+            })
+            .collect();
+        *m.positions_mut() = clothcast_mesh::VertexData::from_vec(p);
+        assert!(extrinsic(&m).iter().any(|&(_, w)| w < -1e-6), "the test mesh has no negative weight");
+        let idt = intrinsic_delaunay_weights(&m);
+        assert!(idt.iter().all(|&(a, b, w)| a != b && w > -1e-9), "{idt:?}");
+    }
 
     fn tri(p: [[f64; 3]; 3]) -> Mesh {
         Mesh::try_new(p.iter().map(|x| Vec3::new(x[0], x[1], x[2])).collect(), vec![[0, 1, 2]]).unwrap()

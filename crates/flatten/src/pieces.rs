@@ -139,6 +139,9 @@ pub struct FlattenReport {
     pub retried: usize,
     /// Vertices moved by the untangling of flipped triangles.
     pub repaired_vertices: usize,
+    /// Pieces flattened on their intrinsic Delaunay triangulation, their first flattening
+    /// having come out badly distorted ([`flatten_piece`]).
+    pub intrinsic_delaunay: usize,
     /// Pieces whose flattened outline crossed itself and was made simple ([`flatten_piece`]).
     pub outlines_repaired: usize,
     /// Pieces whose outline still crosses itself (the pattern stage refuses them).
@@ -162,6 +165,12 @@ pub const DISTORTED_QC_MEAN: f64 = 1.25;
 /// … or when its largest per-face area ratio exceeds its smallest by this factor (the README
 /// models: at most 10.4, camelhead around its 0.55° input slivers).
 pub const DISTORTED_AREA_SPREAD: f64 = 50.0;
+
+/// Whether a flattening is badly distorted ([`DISTORTED_QC_MEAN`], [`DISTORTED_AREA_SPREAD`]).
+pub fn is_distorted(stats: &FlatteningStats) -> bool {
+    !(stats.qc_mean <= DISTORTED_QC_MEAN
+        && stats.area_ratio_max <= DISTORTED_AREA_SPREAD * stats.area_ratio_min.max(0.0))
+}
 
 /// Flattening figures of one piece (an entry of `flattening.per_piece` in `summary.json`).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -241,6 +250,7 @@ pub fn flatten_segmentation(
         let piece =
             flatten_piece(&pm, &opts.bff).map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
         report.retried += usize::from(piece.retried);
+        report.intrinsic_delaunay += usize::from(piece.intrinsic_delaunay);
         report.repaired_vertices += piece.repaired_vertices;
         if piece.flattening.stats.flipped_triangles > 0 {
             tracing::warn!(
@@ -344,14 +354,7 @@ pub fn flatten_segmentation(
             fiber_alignment_median_deg: q.fiber_deviation_median_deg,
         })
         .collect();
-    report.distorted_pieces = report
-        .per_piece
-        .iter()
-        .filter(|p| {
-            !(p.qc_mean <= DISTORTED_QC_MEAN && p.area_ratio_max <= DISTORTED_AREA_SPREAD * p.area_ratio_min.max(0.0))
-        })
-        .map(|p| p.patch)
-        .collect();
+    report.distorted_pieces = patches.iter().filter(|q| is_distorted(&q.stats)).map(|q| q.patch).collect();
     report.fiber_alignment_other_rule_deg = weighted_median(all_other);
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
     report.seconds = start.elapsed().as_secs_f64();
@@ -530,6 +533,9 @@ pub struct PieceFlattening {
     pub outline_repair: Option<OutlineRepair>,
     /// Whether the outline is simple (no two of its edges cross or touch).
     pub outline_simple: bool,
+    /// Whether the piece came out badly distorted and is flattened on its intrinsic Delaunay
+    /// triangulation instead ([`BffOptions::intrinsic_delaunay`]), which was less distorted.
+    pub intrinsic_delaunay: bool,
 }
 
 /// How [`flatten_piece`] made a self-crossing outline simple.
@@ -570,6 +576,23 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
         }
         repaired_vertices += untangle_flattening(pm, &mut flat);
     }
+    // Badly distorted (obtuse slivers make negative cotan weights, and the map shears): again
+    // on the intrinsic Delaunay triangulation, kept if less distorted with no more flips.
+    let mut bff = std::borrow::Cow::Borrowed(bff);
+    let mut intrinsic_delaunay = false;
+    if is_distorted(&flat.stats) && !bff.intrinsic_delaunay {
+        let idt = BffOptions { intrinsic_delaunay: true, ..bff.as_ref().clone() };
+        if let Ok(mut f2) = bff_flatten(pm, &idt) {
+            let moved = untangle_flattening(pm, &mut f2);
+            if f2.stats.flipped_triangles <= flat.stats.flipped_triangles && f2.stats.qc_mean < flat.stats.qc_mean {
+                flat = f2;
+                repaired_vertices += moved;
+                bff = std::borrow::Cow::Owned(idt);
+                intrinsic_delaunay = true;
+            }
+        }
+    }
+    let bff = bff.as_ref();
     let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
     let mut outline_repair = None;
     let crossing = outline_crossing(&flat.uv, &outline);
@@ -616,7 +639,15 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
         }
     }
     let outline_simple = crossing.is_none() || outline_repair.is_some();
-    Ok(PieceFlattening { flattening: flat, outline, retried, repaired_vertices, outline_repair, outline_simple })
+    Ok(PieceFlattening {
+        flattening: flat,
+        outline,
+        retried,
+        repaired_vertices,
+        outline_repair,
+        outline_simple,
+        intrinsic_delaunay,
+    })
 }
 
 /// [`untangle`] a flattening that has flipped triangles, its statistics updated; returns the
