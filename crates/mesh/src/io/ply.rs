@@ -294,10 +294,27 @@ impl PropertyAccess for AnyElement {
 
 fn ply_err(name: &str, e: ply_rs_bw::parser::ParseError) -> MeshError {
     use std::io::ErrorKind;
-    let message = e.to_string().replace("\n\t", " ");
+    let message = tidy_message(&e.to_string().replace("\n\t", " "));
     match e.kind() {
         ErrorKind::UnexpectedEof => MeshError::Truncated { path: name.into(), message },
         _ => MeshError::Malformed { path: name.into(), line: e.line(), message },
+    }
+}
+
+/// ply-rs reports a header line it cannot parse as "Line N: Couldn't parse line. String:
+/// '<line>' Error: ParseError { <the grammar's expected set> }": the line itself, quoted, is what
+/// helps (the line number is reported apart).
+fn tidy_message(message: &str) -> String {
+    const MARK: &str = "Couldn't parse line. String: '";
+    match message.find(MARK) {
+        Some(start) => {
+            let line = message[start + MARK.len()..].split('\'').next().unwrap_or("").trim();
+            format!(
+                "cannot parse the header line `{line}` (an unknown keyword or property type? types are char, uchar, \
+                 short, ushort, int, uint, float, double and their sized names such as int32, float64)"
+            )
+        }
+        None => message.to_string(),
     }
 }
 
