@@ -14,6 +14,10 @@ use serde::Serialize;
 /// wide as the roll is then some ten edges across, enough to be cut in two.
 const EDGES_ACROSS_ROLL: f64 = 10.0;
 
+/// Smallest and largest accepted bounding-box diagonal of the target, in metres.
+const MIN_SIZE_M: f64 = 1e-4;
+const MAX_SIZE_M: f64 = 1e4;
+
 /// The refinement's face cap for the edge length (a larger `mesh.min_faces` raises it).
 const MAX_REFINED_FACES: usize = 200_000;
 
@@ -146,6 +150,15 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
             )));
         }
         mesh.set_positions(p);
+    }
+    // A mold between 0.1 mm and 10 km across: beyond that the units or the height are wrong,
+    // and the loads and energies would under- or overflow.
+    let size = mesh.bbox().diagonal();
+    if !(MIN_SIZE_M..=MAX_SIZE_M).contains(&size) {
+        return Err(Failure::Input(anyhow!(
+            "{label}: the mesh is {size:.3e} m across once in metres (scaled by {to_metres:e}); a mold between \
+             {MIN_SIZE_M} m and {MAX_SIZE_M} m is expected: check mesh.units or mesh.height"
+        )));
     }
     let unrefined_faces = mesh.n_faces();
     let (mut face_to_input, mut refinement_splits) = (prepared.face_to_input, 0);

@@ -108,6 +108,10 @@ fn scenario_errors_exit_2() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A mold a micrometre tall (the units or the height wrong): refused, not solved into NaN.
+    let o = run(&["simulate", "-q", "--height", "1e-6", "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("m across once in metres"), "{}", text(&o));
     // An open dome with its opening below the fill level: the liquid would spill.
     let o = run(&["simulate", "-q", data("open/hemisphere.off").to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
