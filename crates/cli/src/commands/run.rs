@@ -17,6 +17,12 @@ use std::time::Instant;
 /// Layouts made again, smaller, when a piece did not fit the roll.
 const ROLL_RETRIES: usize = 4;
 
+/// Most layouts made again to split badly distorted pieces.
+const DISTORTION_RETRIES: usize = 2;
+
+/// A badly distorted piece's parts get at most this share of its extent (about two halves).
+const DISTORTION_SPLIT: f64 = 0.6;
+
 /// The last stage to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Until {
@@ -92,6 +98,10 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     let mut retries = 0;
     // The pieces too wide last time, and how many layouts in a row have given the same.
     let (mut last_too_wide, mut repeats): (Vec<(u32, f64)>, usize) = (Vec::new(), 0);
+    // Layouts made again to split badly distorted pieces, and the least distorted complete
+    // layout so far.
+    let mut distortion_retries = 0;
+    let mut best: Option<(clothcast_layout::Segmentation, stages::patterns::PatternsResult)> = None;
     // Time of every layout made, and of the flattening and patterns of the ones redone.
     let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
@@ -110,6 +120,13 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
             _ => None,
         };
         match (result, too_wide) {
+            // A layout made again for distorted pieces that fails (a piece too wide, or
+            // another error): the complete layout before it stands.
+            (Err(_), _) if best.is_some() => {
+                redone_seconds += attempt.elapsed().as_secs_f64();
+                let (seg, p) = best.take().expect("checked");
+                break (Some(seg), Some(p));
+            }
             (Err(_), Some((e, pieces))) => {
                 redone_seconds += attempt.elapsed().as_secs_f64();
                 // The same pieces may come back (the layout measures a patch before its seams
@@ -161,7 +178,38 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 stages::segmentation::write_outputs(&args.out, &input, &seg)?;
                 return Err(e);
             }
-            (Ok(p), _) => break (Some(seg), Some(p)),
+            (Ok(p), _) => {
+                // Pieces that came out badly distorted (a corner or a strongly curved region
+                // inside them, which the developability score misses) are split in a new
+                // layout, up to DISTORTION_RETRIES times while that lowers their count; the
+                // layout with the fewest is kept (the earliest on a tie).
+                let distorted = p.flat.report.distorted_pieces.clone();
+                let fewer = best.as_ref().is_none_or(|(_, b)| distorted.len() < b.flat.report.distorted_pieces.len());
+                let done = distorted.is_empty() || distortion_retries == DISTORTION_RETRIES || !fewer;
+                if !done {
+                    for &piece in &distorted {
+                        let own: Vec<FaceId> =
+                            seg.patch_of_face.enumerate().filter(|&(_, &q)| q == piece).map(|(g, _)| g).collect();
+                        let mut faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
+                        faces.sort_unstable();
+                        faces.dedup();
+                        hints.push(SplitHint { faces, max_extent: patch_extent(&seg.mesh, &own) * DISTORTION_SPLIT });
+                    }
+                    progress.say(format!(
+                        "{} piece(s) badly distorted: laying the patches out again with those split",
+                        distorted.len()
+                    ));
+                }
+                if fewer {
+                    best = Some((seg, p));
+                }
+                if done {
+                    let (seg, p) = best.take().expect("a complete layout");
+                    break (Some(seg), Some(p));
+                }
+                distortion_retries += 1;
+                redone_seconds += attempt.elapsed().as_secs_f64();
+            }
         }
     };
     if let Some(seg) = &segmentation {
@@ -171,11 +219,13 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     }
     let patterns = match (segmentation.as_ref(), patterns) {
         (Some(seg), Some(mut p)) => {
+            stages::patterns::warn_distorted(&p.flat.report);
             let t = std::time::Instant::now();
             let files = stages::patterns::write_outputs(&args.out, &input, seg, &p)?;
             p.summary.seconds += t.elapsed().as_secs_f64();
             p.summary.files = files;
             p.summary.layout_retries = retries;
+            p.summary.distortion_retries = distortion_retries;
             stages.flattening = Some(StageTime { seconds: p.flat.report.seconds + redone_seconds });
             stages.patterns = Some(StageTime { seconds: p.summary.seconds });
             Some(p)

@@ -39,6 +39,9 @@ pub struct PatternsSummary {
     pub files: Vec<String>,
     /// Times the patches were laid out again, smaller, because a piece did not fit the roll.
     pub layout_retries: usize,
+    /// Layouts made again to split pieces that came out badly distorted
+    /// (`flattening.distorted_pieces`), at most two.
+    pub distortion_retries: usize,
     /// Seconds.
     pub seconds: f64,
 }
@@ -51,6 +54,21 @@ pub struct PatternsResult {
     pub pattern: Pattern,
     /// Summary section.
     pub summary: PatternsSummary,
+}
+
+/// Warn about every badly distorted piece of a flattening (`flattening.distorted_pieces`).
+pub fn warn_distorted(r: &clothcast_flatten::FlattenReport) {
+    for p in r.per_piece.iter().filter(|p| r.distorted_pieces.contains(&p.patch)) {
+        tracing::warn!(
+            "piece {id} (P{id}) is badly distorted once flattened (area ratio {:.3}–{:.1}, mean quasi-conformal ratio \
+             {:.2}): the fabric cannot follow the target there; a sharp corner or sliver triangles inside the piece are \
+             the usual cause (round or remesh the target there)",
+            p.area_ratio_min,
+            p.area_ratio_max,
+            p.qc_mean,
+            id = p.patch
+        );
+    }
 }
 
 /// Label of a seam: a letter and a number (A1…A99, B1…).
@@ -114,17 +132,6 @@ pub fn run(
         r.seconds
     ));
 
-    for p in r.per_piece.iter().filter(|p| r.distorted_pieces.contains(&p.patch)) {
-        tracing::warn!(
-            "piece {id} (P{id}) is badly distorted once flattened (area ratio {:.3}–{:.1}, mean quasi-conformal ratio \
-             {:.2}): the fabric cannot follow the target there; a sharp corner or sliver triangles inside the piece are \
-             the usual cause (round or remesh the target there)",
-            p.area_ratio_min,
-            p.area_ratio_max,
-            p.qc_mean,
-            id = p.patch
-        );
-    }
     let stage = progress.stage("building the patterns");
     let t1 = Instant::now();
     let marks = marks_per_piece(cfg, input, seg, &flat)?;
@@ -186,6 +193,7 @@ pub fn run(
         pieces_area_mm2: pattern.stats.area_mm2_total,
         files: Vec::new(),
         layout_retries: 0,
+        distortion_retries: 0,
         seconds: t1.elapsed().as_secs_f64(),
     };
     progress.say(format!(
