@@ -152,7 +152,8 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         mesh.set_positions(p);
     }
     // A mold between 0.1 mm and 10 km across: beyond that the units or the height are wrong,
-    // and the loads and energies would under- or overflow.
+    // and the loads and energies would under- or overflow. (The bounding box skips non-finite
+    // points, hence the check above.)
     let size = mesh.bbox().diagonal();
     if !(MIN_SIZE_M..=MAX_SIZE_M).contains(&size) {
         return Err(Failure::Input(anyhow!(

@@ -405,6 +405,8 @@ pub struct BffProblem<'m> {
     lengths: Vec<f64>,
     /// Each boundary vertex's dual length: half of its two boundary edges.
     dual: Vec<f64>,
+    /// The boundary's length.
+    total_len: f64,
 }
 
 impl<'m> BffProblem<'m> {
@@ -470,7 +472,7 @@ impl<'m> BffProblem<'m> {
             kt[j] += residual * dual[j] / total_len;
         }
         tracing::debug!(residual, "BFF: curvature closing residual");
-        Ok(Self { mesh, b, factor, u, kt, lengths, dual })
+        Ok(Self { mesh, b, factor, u, kt, lengths, dual, total_len })
     }
 
     /// The flattening with the target boundary curvature relieved and smoothed as
@@ -482,8 +484,7 @@ impl<'m> BffProblem<'m> {
     /// closed.
     pub fn flatten(&self, relief: Option<BoundaryRelief>, smoothing: f64) -> Result<Flattening, FlattenError> {
         let (mesh, b, lengths, dual) = (self.mesh, &self.b, &self.lengths, &self.dual);
-        let (nb, ni) = (lengths.len(), b.n_interior);
-        let total_len: f64 = lengths.iter().sum();
+        let (nb, ni, total_len) = (lengths.len(), b.n_interior, self.total_len);
         let solve = |rhs: &mut [f64]| {
             if let Some((f, _)) = &self.factor {
                 f.solve_in_place(rhs);

@@ -163,7 +163,7 @@ pub struct FlattenReport {
 /// (the six README models' pieces stay below 1.13).
 pub const DISTORTED_QC_MEAN: f64 = 1.25;
 /// … or when its largest per-face area ratio exceeds its smallest by this factor (the README
-/// models: at most 10.4, camelhead around its 0.55° input slivers).
+/// models at 0.5 m: at most 10.4, camelhead's).
 pub const DISTORTED_AREA_SPREAD: f64 = 50.0;
 
 /// Whether a flattening is badly distorted ([`DISTORTED_QC_MEAN`], [`DISTORTED_AREA_SPREAD`]).
@@ -564,7 +564,10 @@ pub enum OutlineRepair {
 /// # Errors
 /// Those of [`bff_flatten`] on the first flattening.
 pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, FlattenError> {
-    let mut flat = bff_flatten(pm, bff)?;
+    // The prepared problem an outline repair re-flattens from: its interior Laplacian is
+    // factored once for the first flattening and every repair candidate.
+    let mut problem = BffProblem::new(pm, bff)?;
+    let mut flat = problem.flatten(bff.boundary_relief, bff.boundary_smoothing)?;
     let (mut retried, mut repaired_vertices) = (false, 0);
     if flat.stats.flipped_triangles > 0 {
         retried = true;
@@ -578,31 +581,30 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
     }
     // Badly distorted (obtuse slivers make negative cotan weights, and the map shears): again
     // on the intrinsic Delaunay triangulation, kept if less distorted with no more flips.
-    let mut bff = std::borrow::Cow::Borrowed(bff);
     let mut intrinsic_delaunay = false;
     if is_distorted(&flat.stats) && !bff.intrinsic_delaunay {
-        let idt = BffOptions { intrinsic_delaunay: true, ..bff.as_ref().clone() };
-        if let Ok(mut f2) = bff_flatten(pm, &idt) {
+        let idt = BffOptions { intrinsic_delaunay: true, ..bff.clone() };
+        if let Ok(p2) = BffProblem::new(pm, &idt)
+            && let Ok(mut f2) = p2.flatten(idt.boundary_relief, idt.boundary_smoothing)
+        {
             let moved = untangle_flattening(pm, &mut f2);
             if f2.stats.flipped_triangles <= flat.stats.flipped_triangles && f2.stats.qc_mean < flat.stats.qc_mean {
                 flat = f2;
                 repaired_vertices += moved;
-                bff = std::borrow::Cow::Owned(idt);
+                problem = p2;
                 intrinsic_delaunay = true;
             }
         }
     }
-    let bff = bff.as_ref();
     let outline: Vec<VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
     let mut outline_repair = None;
     let crossing = outline_crossing(&flat.uv, &outline);
     if let Some((i, j)) = crossing {
         // A candidate re-flattening is taken if its outline is simple with no more flipped
-        // triangles (after untangling). The candidates change only the boundary curvature:
-        // the interior Laplacian is factored once for all of them.
-        let problem = BffProblem::new(pm, bff).ok();
+        // triangles (after untangling). The candidates change only the boundary curvature, so
+        // they reuse the problem's factor.
         let try_with = |relief: Option<BoundaryRelief>, smoothing: f64| -> Option<(Flattening, usize)> {
-            let mut f2 = problem.as_ref()?.flatten(relief, smoothing).ok()?;
+            let mut f2 = problem.flatten(relief, smoothing).ok()?;
             let moved = untangle_flattening(pm, &mut f2);
             (f2.stats.flipped_triangles <= flat.stats.flipped_triangles && outline_crossing(&f2.uv, &outline).is_none())
                 .then_some((f2, moved))

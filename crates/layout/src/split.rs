@@ -179,17 +179,16 @@ pub fn spectral_split(
     }
     cands.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     // Keep candidates distinct enough: skip positions within 2% of the faces of a tried one.
-    let mut tried: Vec<usize> = Vec::new();
+    let mut tried: Vec<(f64, usize)> = Vec::new();
     let spacing = (n / 50).max(1);
-    for &(_, k) in &cands {
+    for &(ncut, k) in &cands {
         if tried.len() >= MAX_CANDIDATES {
             break;
         }
-        if tried.iter().all(|&t| t.abs_diff(k) >= spacing) {
-            tried.push(k);
+        if tried.iter().all(|&(_, t)| t.abs_diff(k) >= spacing) {
+            tried.push((ncut, k));
         }
     }
-    let ncut_of = |k: usize| cands.iter().find(|c| c.1 == k).map_or(f64::INFINITY, |c| c.0);
     let sides = |k: usize| {
         let mut a: Vec<FaceId> = order[..=k].iter().map(|&i| faces[i]).collect();
         let mut b: Vec<FaceId> = order[k + 1..].iter().map(|&i| faces[i]).collect();
@@ -206,16 +205,16 @@ pub fn spectral_split(
         let info_b = region_info(mesh, &b, &side_label, seam, rule);
         info_b.is_disk().then_some(Split { a, b, info_a, info_b, ncut })
     };
-    for &k in &tried {
+    for &(ncut, k) in &tried {
         let (a, b) = sides(k);
-        if let Some(split) = two_disks(a, b, ncut_of(k)) {
+        if let Some(split) = two_disks(a, b, ncut) {
             return Ok(Some(split));
         }
     }
     // No sweep cut gives two disks: where a side falls in several parts (the Fiedler vector's
     // level sets break up on a patch bent over a crease, or U-shaped), its largest part against
     // the rest of the patch. Tried last, so that patches split before keep their cut.
-    for &k in &tried {
+    for &(_, k) in &tried {
         let (a, b) = sides(k);
         for side in [&a, &b] {
             let parts = connected_parts(mesh, side, seam);

@@ -9,7 +9,7 @@ use crate::progress::Progress;
 use crate::stages;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
-use clothcast_layout::{SplitHint, patch_extent};
+use clothcast_layout::{Segmentation, SplitHint, patch_extent};
 use clothcast_mesh::FaceId;
 use clothcast_mesh::io::write_atomic;
 use std::time::Instant;
@@ -22,6 +22,16 @@ const DISTORTION_RETRIES: usize = 2;
 
 /// A badly distorted piece's parts get at most this share of its extent (about two halves).
 const DISTORTION_SPLIT: f64 = 0.6;
+
+/// A piece's faces on the segmented mesh, and the target's faces they lie in (sorted, each
+/// once): what a [`SplitHint`] names.
+fn piece_faces(seg: &Segmentation, piece: u32) -> (Vec<FaceId>, Vec<FaceId>) {
+    let own: Vec<FaceId> = seg.patch_of_face.enumerate().filter(|&(_, &p)| p == piece).map(|(g, _)| g).collect();
+    let mut faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
+    faces.sort_unstable();
+    faces.dedup();
+    (own, faces)
+}
 
 /// The last stage to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -101,7 +111,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // Layouts made again to split badly distorted pieces, and the least distorted complete
     // layout so far.
     let mut distortion_retries = 0;
-    let mut best: Option<(clothcast_layout::Segmentation, stages::patterns::PatternsResult)> = None;
+    let mut best: Option<(Segmentation, stages::patterns::PatternsResult)> = None;
     // Time of every layout made, and of the flattening and patterns of the ones redone.
     let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
@@ -146,11 +156,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 for &(piece, ratio) in &pieces {
                     // Its pieces' extent: the patch's own, scaled as its flattened width is
                     // too wide, with 5% to spare.
-                    let own: Vec<FaceId> =
-                        seg.patch_of_face.enumerate().filter(|&(_, &p)| p == piece).map(|(g, _)| g).collect();
-                    let mut faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
-                    faces.sort_unstable();
-                    faces.dedup();
+                    let (own, faces) = piece_faces(&seg, piece);
                     let shrink = 0.95 / ratio.max(1.0);
                     // A piece too wide again after a hint on its region: the layout measures the
                     // patch before its seams are straightened and re-routed, which can make it
@@ -188,11 +194,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 let done = distorted.is_empty() || distortion_retries == DISTORTION_RETRIES || !fewer;
                 if !done {
                     for &piece in &distorted {
-                        let own: Vec<FaceId> =
-                            seg.patch_of_face.enumerate().filter(|&(_, &q)| q == piece).map(|(g, _)| g).collect();
-                        let mut faces: Vec<FaceId> = own.iter().map(|&g| seg.face_parent[g]).collect();
-                        faces.sort_unstable();
-                        faces.dedup();
+                        let (own, faces) = piece_faces(&seg, piece);
                         hints.push(SplitHint { faces, max_extent: patch_extent(&seg.mesh, &own) * DISTORTION_SPLIT });
                     }
                     progress.say(format!(
