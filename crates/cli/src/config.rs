@@ -76,6 +76,11 @@ pub struct PatternSection {
     pub piece_gap_mm: f64,
     /// Label height (mm).
     pub text_height_mm: f64,
+    /// A piece is badly distorted (warned about, split in a new layout) above this
+    /// area-weighted mean quasi-conformal ratio.
+    pub max_qc_mean: f64,
+    /// … or when its largest per-face area ratio exceeds its smallest by more than this factor.
+    pub max_area_spread: f64,
 }
 
 impl PatternSection {
@@ -98,6 +103,8 @@ impl Default for PatternSection {
             allow_weft_swap: p.allow_weft_swap,
             piece_gap_mm: p.piece_gap_mm,
             text_height_mm: p.text_height_mm,
+            max_qc_mean: clothcast_flatten::DistortionLimits::default().qc_mean,
+            max_area_spread: clothcast_flatten::DistortionLimits::default().area_spread,
         }
     }
 }
@@ -667,6 +674,17 @@ impl Config {
         positive("pattern", "fabric_width_mm", p.fabric_width_mm)?;
         non_negative("pattern", "piece_gap_mm", p.piece_gap_mm)?;
         positive("pattern", "text_height_mm", p.text_height_mm)?;
+        if !(p.max_qc_mean >= 1.0) {
+            return Err(err("pattern", "max_qc_mean", p.max_qc_mean.to_string(), "must be at least 1 (inf: no limit)"));
+        }
+        if !(p.max_area_spread >= 1.0) {
+            return Err(err(
+                "pattern",
+                "max_area_spread",
+                p.max_area_spread.to_string(),
+                "must be at least 1 (inf: no limit)",
+            ));
+        }
         Ok(())
     }
 }
@@ -713,6 +731,12 @@ mod tests {
         let e =
             Config::from_toml("seed = 3\n[material]\n# c\npoisson_ratio = 1.5\n", "c.toml").unwrap_err().to_string();
         assert!(e.contains("c.toml:4") && e.contains("material.poisson_ratio"), "{e}");
+        for (key, value) in [("max_qc_mean", "0.9"), ("max_area_spread", "nan"), ("max_area_spread", "0.5")] {
+            let e = Config::from_toml(&format!("[pattern]\n{key} = {value}\n"), "p.toml").unwrap_err().to_string();
+            assert!(e.contains("p.toml:2") && e.contains(&format!("pattern.{key}")) && e.contains("at least 1"), "{e}");
+        }
+        let c = Config::from_toml("[pattern]\nmax_qc_mean = inf\nmax_area_spread = 8\n", "p").unwrap();
+        assert_eq!((c.pattern.max_qc_mean, c.pattern.max_area_spread), (f64::INFINITY, 8.0));
     }
 
     #[test]

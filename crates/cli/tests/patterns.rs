@@ -220,15 +220,18 @@ fn a_patch_over_a_crease_is_split_to_fit_the_roll() {
 /// The table top of a CAD model (0.16° input slivers, box corners). At 0.5 m two of its
 /// pieces flattened with a mean quasi-conformal ratio of 36 and 79 (obtuse slivers, negative
 /// cotan weights): they are flattened again on their intrinsic Delaunay triangulation and come
-/// out near conformal. At 0.3 m two pieces stay badly distorted (box corners inside them):
-/// the patches are laid out again with them split, which leaves one, named in a warning and in
-/// `flattening.distorted_pieces`. Smooth models have none (checked by `check_run`).
+/// out near conformal. At 0.3 m BFF flips slivers in two pieces; unfolded where they are, no
+/// piece is badly distorted (the former Tutte untangling sheared one to a mean of 13.6, and two
+/// new layouts left it so). With stricter limits (`[pattern] max_qc_mean`, `max_area_spread`)
+/// the pieces over them are named in warnings and in `flattening.distorted_pieces`, and the
+/// patches are laid out again with them split. Smooth models have none (checked by `check_run`).
 #[test]
 fn distorted_pieces_are_reflattened_or_reported() {
     let table = data("multi/wooden_table_02.obj");
-    let table_run = |tag: &str, height: &str| {
+    let table_run = |tag: &str, height: &str, config: Option<&str>| {
         let out = tmpdir(tag);
-        let o = run(&[
+        let cfg = out.join("limits.toml");
+        let mut args = vec![
             "run",
             table.to_str().unwrap(),
             "--largest-component",
@@ -237,22 +240,39 @@ fn distorted_pieces_are_reflattened_or_reported() {
             "-q",
             "-o",
             out.to_str().unwrap(),
-        ]);
+        ];
+        if let Some(c) = config {
+            std::fs::write(&cfg, c).unwrap();
+            args.extend(["-c", cfg.to_str().unwrap()]);
+        }
+        let o = run(&args);
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
         (summary(&out), text(&o))
     };
-    let (s, _) = table_run("table-05", "0.5");
+    let (s, _) = table_run("table-05", "0.5", None);
     let fl = &s["flattening"];
     assert!(fl["intrinsic_delaunay"].as_u64().unwrap() >= 1, "{fl}");
     assert!(fl["distorted_pieces"].as_array().unwrap().is_empty(), "{fl}");
     assert!(fl["qc_mean"].as_f64().unwrap() < 1.1, "{fl}");
 
-    let (s, log) = table_run("table-03", "0.3");
-    // Laid out again with the distorted pieces split (2 of them -> 1), the rest reported.
+    let (s, _) = table_run("table-03", "0.3", None);
+    let fl = &s["flattening"];
+    assert!(fl["repaired_vertices"].as_u64().unwrap() > 0, "{fl}");
+    assert!(fl["distorted_pieces"].as_array().unwrap().is_empty(), "{fl}");
+    assert!(fl["qc_mean"].as_f64().unwrap() < 1.1 && fl["qc_max"].as_f64().unwrap() < 20.0, "{fl}");
+    assert_eq!(s["patterns"]["distortion_retries"], 0);
+
+    let (s, log) = table_run("table-03-strict", "0.3", Some("[pattern]\nmax_qc_mean = 1.05\nmax_area_spread = 8\n"));
     assert!(s["patterns"]["distortion_retries"].as_u64().unwrap() >= 1, "{}", s["patterns"]);
     let distorted = s["flattening"]["distorted_pieces"].as_array().unwrap().clone();
     assert!(!distorted.is_empty(), "{}", s["flattening"]);
-    assert!(log.contains(&format!("piece {} (P{}) is badly distorted", distorted[0], distorted[0])), "{log}");
+    for p in s["flattening"]["per_piece"].as_array().unwrap() {
+        let over = p["qc_mean"].as_f64().unwrap() > 1.05
+            || p["area_ratio_max"].as_f64().unwrap() > 8.0 * p["area_ratio_min"].as_f64().unwrap();
+        assert_eq!(over, distorted.contains(&p["patch"]), "{p}");
+    }
+    let warning = format!("piece {} (P{}) is badly distorted", distorted[0], distorted[0]);
+    assert!(log.contains(&warning) && log.contains("max_qc_mean = 1.05"), "{log}");
 }
 
 #[test]

@@ -28,10 +28,11 @@
 pub mod bff;
 pub mod error;
 pub mod pieces;
+mod untangle;
 
 pub use bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 pub use error::FlattenError;
 pub use pieces::{
-    FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, OutlineRepair, PieceFlattening, PieceReport,
-    SeamRun, flatten_piece, flatten_segmentation, outline_crossing,
+    DistortionLimits, FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, OutlineRepair,
+    PieceFlattening, PieceReport, SeamRun, flatten_piece, flatten_segmentation, outline_crossing,
 };

@@ -5,9 +5,10 @@
 //! minimal-area-distortion mode ([`crate::bff`]): boundary lengths are kept, so the two sides
 //! of a seam keep (nearly) the same length. A flattening with flipped triangles (BFF is linear;
 //! it happens around needle triangles of the input) is retried with a stronger cotangent floor,
-//! then untangled: the vertices of flipped triangles, and rings around them, are moved to the
-//! average of their neighbours (a local Tutte step; boundary vertices last and only if needed)
-//! until nothing is flipped. What remains is reported (`flipped_triangles`), never hidden.
+//! then untangled (`untangle.rs`): the vertices of flipped triangles and a ring or a few
+//! around them minimise a foldover-free conformal energy, the rest of the map held, so the
+//! flips are undone where they are without shearing the piece (a local Tutte step is the last
+//! resort). What remains is reported (`flipped_triangles`), never hidden.
 //!
 //! **Area.** BFF with zero boundary scale factors keeps every boundary length but shrinks the
 //! interior of a positively curved patch (a spherical cap of half-angle α keeps (1 + cos α)/2 of
@@ -35,6 +36,7 @@
 
 use crate::bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
 use crate::error::FlattenError;
+use crate::untangle::untangle;
 use clothcast_layout::Segmentation;
 use clothcast_layout::cutgraph::cut_open;
 use clothcast_mesh::submesh::extract_submesh;
@@ -66,11 +68,18 @@ pub struct FlattenOptions {
     pub match_area: bool,
     /// BFF options.
     pub bff: BffOptions,
+    /// When a piece is reported as badly distorted.
+    pub limits: DistortionLimits,
 }
 
 impl Default for FlattenOptions {
     fn default() -> Self {
-        Self { orientation: Orientation::Field, match_area: true, bff: BffOptions::default() }
+        Self {
+            orientation: Orientation::Field,
+            match_area: true,
+            bff: BffOptions::default(),
+            limits: DistortionLimits::default(),
+        }
     }
 }
 
@@ -140,15 +149,16 @@ pub struct FlattenReport {
     /// Vertices moved by the untangling of flipped triangles.
     pub repaired_vertices: usize,
     /// Pieces flattened on their intrinsic Delaunay triangulation, their first flattening
-    /// having come out badly distorted ([`flatten_piece`]).
+    /// having come out with flipped triangles or badly distorted ([`flatten_piece`]).
     pub intrinsic_delaunay: usize,
     /// Pieces whose flattened outline crossed itself and was made simple ([`flatten_piece`]).
     pub outlines_repaired: usize,
     /// Pieces whose outline still crosses itself (the pattern stage refuses them).
     pub outlines_not_simple: usize,
     /// Patch ids of the pieces whose flattening is badly distorted: an area-weighted mean
-    /// quasi-conformal ratio above [`DISTORTED_QC_MEAN`], or per-face area ratios further apart
-    /// than [`DISTORTED_AREA_SPREAD`] (the fabric cannot follow the target there; a sharp corner
+    /// quasi-conformal ratio above [`DistortionLimits::qc_mean`] (default [`DISTORTED_QC_MEAN`]),
+    /// or per-face area ratios further apart than [`DistortionLimits::area_spread`] (default
+    /// [`DISTORTED_AREA_SPREAD`]) (the fabric cannot follow the target there; a sharp corner
     /// or sliver triangles inside the piece are the usual cause).
     pub distorted_pieces: Vec<u32>,
     /// Total 2D / 3D area straight out of BFF (before the common scale).
@@ -160,16 +170,38 @@ pub struct FlattenReport {
 }
 
 /// A piece is reported as badly distorted above this area-weighted mean quasi-conformal ratio
-/// (the six README models' pieces stay below 1.13).
+/// by default (the six README models' pieces stay below 1.13).
 pub const DISTORTED_QC_MEAN: f64 = 1.25;
 /// … or when its largest per-face area ratio exceeds its smallest by this factor (the README
 /// models at 0.5 m: at most 10.4, camelhead's).
 pub const DISTORTED_AREA_SPREAD: f64 = 50.0;
 
-/// Whether a flattening is badly distorted ([`DISTORTED_QC_MEAN`], [`DISTORTED_AREA_SPREAD`]).
+/// When a flattened piece counts as badly distorted ([`FlattenReport::distorted_pieces`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistortionLimits {
+    /// Largest area-weighted mean quasi-conformal ratio.
+    pub qc_mean: f64,
+    /// Largest ratio between a piece's largest and smallest per-face area ratios.
+    pub area_spread: f64,
+}
+
+impl Default for DistortionLimits {
+    fn default() -> Self {
+        Self { qc_mean: DISTORTED_QC_MEAN, area_spread: DISTORTED_AREA_SPREAD }
+    }
+}
+
+impl DistortionLimits {
+    /// Whether a flattening exceeds these limits.
+    pub fn exceeded_by(&self, stats: &FlatteningStats) -> bool {
+        !(stats.qc_mean <= self.qc_mean && stats.area_ratio_max <= self.area_spread * stats.area_ratio_min.max(0.0))
+    }
+}
+
+/// Whether a flattening is badly distorted by the default limits ([`DISTORTED_QC_MEAN`],
+/// [`DISTORTED_AREA_SPREAD`]).
 pub fn is_distorted(stats: &FlatteningStats) -> bool {
-    !(stats.qc_mean <= DISTORTED_QC_MEAN
-        && stats.area_ratio_max <= DISTORTED_AREA_SPREAD * stats.area_ratio_min.max(0.0))
+    DistortionLimits::default().exceeded_by(stats)
 }
 
 /// Flattening figures of one piece (an entry of `flattening.per_piece` in `summary.json`).
@@ -354,7 +386,7 @@ pub fn flatten_segmentation(
             fiber_alignment_median_deg: q.fiber_deviation_median_deg,
         })
         .collect();
-    report.distorted_pieces = patches.iter().filter(|q| is_distorted(&q.stats)).map(|q| q.patch).collect();
+    report.distorted_pieces = patches.iter().filter(|q| opts.limits.exceeded_by(&q.stats)).map(|q| q.patch).collect();
     report.fiber_alignment_other_rule_deg = weighted_median(all_other);
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
     report.seconds = start.elapsed().as_secs_f64();
@@ -533,8 +565,9 @@ pub struct PieceFlattening {
     pub outline_repair: Option<OutlineRepair>,
     /// Whether the outline is simple (no two of its edges cross or touch).
     pub outline_simple: bool,
-    /// Whether the piece came out badly distorted and is flattened on its intrinsic Delaunay
-    /// triangulation instead ([`BffOptions::intrinsic_delaunay`]), which was less distorted.
+    /// Whether the piece came out with flipped triangles or badly distorted and is flattened on
+    /// its intrinsic Delaunay triangulation instead ([`BffOptions::intrinsic_delaunay`]), which
+    /// was less distorted.
     pub intrinsic_delaunay: bool,
 }
 
@@ -579,10 +612,11 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
         }
         repaired_vertices += untangle_flattening(pm, &mut flat);
     }
-    // Badly distorted (obtuse slivers make negative cotan weights, and the map shears): again
-    // on the intrinsic Delaunay triangulation, kept if less distorted with no more flips.
+    // Flipped triangles or badly distorted (obtuse slivers make negative cotan weights, and the
+    // map shears or folds): again on the intrinsic Delaunay triangulation, kept if less
+    // distorted with no more flips.
     let mut intrinsic_delaunay = false;
-    if is_distorted(&flat.stats) && !bff.intrinsic_delaunay {
+    if (retried || is_distorted(&flat.stats)) && !bff.intrinsic_delaunay {
         let idt = BffOptions { intrinsic_delaunay: true, ..bff.clone() };
         if let Ok(p2) = BffProblem::new(pm, &idt)
             && let Ok(mut f2) = p2.flatten(idt.boundary_relief, idt.boundary_smoothing)
@@ -676,46 +710,4 @@ const OUTLINE_SMOOTHING: [f64; 12] = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 
 pub fn outline_crossing(uv: &VertexData<Vec2>, outline: &[VertexId]) -> Option<(usize, usize)> {
     let poly: Vec<[f64; 2]> = outline.iter().map(|&v| [uv[v].x, uv[v].y]).collect();
     clothcast_mesh::polygon::find_self_intersection(&poly)
-}
-
-/// Untangle flipped triangles of a flattening by local Tutte relaxation: the interior vertices of
-/// flipped faces (then their 1-ring, 2-ring, …) move to the mean of their neighbours, a few
-/// sweeps per round; boundary vertices join only when interior moves are not enough. Returns the
-/// number of vertices moved.
-fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
-    let signed = |uv: &VertexData<Vec2>, f: FaceId| {
-        let [a, b, c] = mesh.face_vertices(f).map(|v| uv[v]);
-        (b - a).perp(&(c - a))
-    };
-    let flipped =
-        |uv: &VertexData<Vec2>| -> Vec<FaceId> { mesh.face_ids().filter(|&f| signed(uv, f) <= 0.0).collect() };
-    let neighbours: Vec<Vec<VertexId>> = mesh.vertices().map(|v| mesh.vertex_neighbors(v)).collect();
-    let mut moved = std::collections::BTreeSet::new();
-    for round in 0..12 {
-        let bad = flipped(uv);
-        if bad.is_empty() {
-            break;
-        }
-        let with_boundary = round >= 6;
-        // The vertices of flipped faces grown by a few rings.
-        let mut set: std::collections::BTreeSet<VertexId> = bad.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
-        for _ in 0..(round % 6) / 2 + 1 {
-            let grown: Vec<VertexId> = set.iter().flat_map(|&v| neighbours[v.idx()].iter().copied()).collect();
-            set.extend(grown);
-        }
-        set.retain(|&v| with_boundary || !mesh.is_boundary_vertex(v));
-        for _ in 0..20 {
-            for &v in &set {
-                let ns = &neighbours[v.idx()];
-                if ns.is_empty() {
-                    continue;
-                }
-                let mean = ns.iter().fold(Vec2::zeros(), |acc, &w| acc + uv[w]) / ns.len() as f64;
-                // Boundary vertices go only half way, to stay near their boundary.
-                uv[v] = if mesh.is_boundary_vertex(v) { 0.5 * (uv[v] + mean) } else { mean };
-                moved.insert(v);
-            }
-        }
-    }
-    moved.len()
 }

@@ -221,7 +221,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     }
     let patterns = match (segmentation.as_ref(), patterns) {
         (Some(seg), Some(mut p)) => {
-            stages::patterns::warn_distorted(&p.flat.report);
+            stages::patterns::warn_distorted(&p.flat.report, &cfg);
             let t = std::time::Instant::now();
             let files = stages::patterns::write_outputs(&args.out, &input, seg, &p)?;
             p.summary.seconds += t.elapsed().as_secs_f64();

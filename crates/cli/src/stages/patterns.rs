@@ -7,7 +7,7 @@ use crate::input::Input;
 use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
-use clothcast_flatten::{FlatPieces, FlattenOptions, flatten_segmentation};
+use clothcast_flatten::{DistortionLimits, FlatPieces, FlattenOptions, flatten_segmentation};
 use clothcast_layout::Segmentation;
 use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
 use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
@@ -57,15 +57,18 @@ pub struct PatternsResult {
 }
 
 /// Warn about every badly distorted piece of a flattening (`flattening.distorted_pieces`).
-pub fn warn_distorted(r: &clothcast_flatten::FlattenReport) {
+pub fn warn_distorted(r: &clothcast_flatten::FlattenReport, cfg: &Config) {
     for p in r.per_piece.iter().filter(|p| r.distorted_pieces.contains(&p.patch)) {
         tracing::warn!(
             "piece {id} (P{id}) is badly distorted once flattened (area ratio {:.3}–{:.1}, mean quasi-conformal ratio \
-             {:.2}): the fabric cannot follow the target there; a sharp corner or sliver triangles inside the piece are \
-             the usual cause (round or remesh the target there)",
+             {:.2}; limits [pattern] max_area_spread = {}, max_qc_mean = {}): the fabric cannot follow the target \
+             there; a sharp corner or sliver triangles inside the piece are the usual cause (round or remesh the \
+             target there)",
             p.area_ratio_min,
             p.area_ratio_max,
             p.qc_mean,
+            cfg.pattern.max_area_spread,
+            cfg.pattern.max_qc_mean,
             id = p.patch
         );
     }
@@ -109,6 +112,7 @@ pub fn run(
     let opts = FlattenOptions {
         orientation: cfg.pattern.orientation,
         match_area: cfg.pattern.match_area,
+        limits: DistortionLimits { qc_mean: cfg.pattern.max_qc_mean, area_spread: cfg.pattern.max_area_spread },
         ..Default::default()
     };
     let flat = flatten_segmentation(seg, &anisotropy, &opts).internal()?;
