@@ -279,8 +279,8 @@ pub fn flatten_segmentation(
         let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| original[v.idx()]);
         let seg_face = sub.face_to_parent.clone();
         let pm = sub.mesh;
-        let piece =
-            flatten_piece(&pm, &opts.bff).map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+        let piece = flatten_piece(&pm, &opts.bff, &opts.limits)
+            .map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
         report.retried += usize::from(piece.retried);
         report.intrinsic_delaunay += usize::from(piece.intrinsic_delaunay);
         report.repaired_vertices += piece.repaired_vertices;
@@ -584,7 +584,8 @@ pub enum OutlineRepair {
 }
 
 /// Flattens one disk-shaped piece by BFF ([`bff_flatten`]). Flipped triangles: retried with a
-/// stronger cotangent floor, then untangled. An outline that crosses itself, which cannot be
+/// stronger cotangent floor, then untangled. Flipped triangles, or a flattening over `limits`:
+/// flattened again on the intrinsic Delaunay triangulation, kept if less distorted. An outline that crosses itself, which cannot be
 /// cut (BFF lays the boundary out from its curvature, and where a patch nearly pinches, e.g.
 /// three sharp corners in a row, the curve can loop over itself with every triangle positive):
 /// flattened again with the looping stretch's turning reduced ([`BffOptions::boundary_relief`],
@@ -596,7 +597,7 @@ pub enum OutlineRepair {
 ///
 /// # Errors
 /// Those of [`bff_flatten`] on the first flattening.
-pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, FlattenError> {
+pub fn flatten_piece(pm: &Mesh, bff: &BffOptions, limits: &DistortionLimits) -> Result<PieceFlattening, FlattenError> {
     // The prepared problem an outline repair re-flattens from: its interior Laplacian is
     // factored once for the first flattening and every repair candidate.
     let mut problem = BffProblem::new(pm, bff)?;
@@ -616,7 +617,7 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions) -> Result<PieceFlattening, Fla
     // map shears or folds): again on the intrinsic Delaunay triangulation, kept if less
     // distorted with no more flips.
     let mut intrinsic_delaunay = false;
-    if (retried || is_distorted(&flat.stats)) && !bff.intrinsic_delaunay {
+    if (retried || limits.exceeded_by(&flat.stats)) && !bff.intrinsic_delaunay {
         let idt = BffOptions { intrinsic_delaunay: true, ..bff.clone() };
         if let Ok(p2) = BffProblem::new(pm, &idt)
             && let Ok(mut f2) = p2.flatten(idt.boundary_relief, idt.boundary_smoothing)

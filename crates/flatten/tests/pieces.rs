@@ -144,7 +144,8 @@ fn a_self_crossing_outline_is_made_simple() {
         clothcast_flatten::outline_crossing(&plain.uv, &outline).is_some(),
         "the patch's plain BFF outline crosses itself (what this test is about)"
     );
-    let piece = clothcast_flatten::flatten_piece(&m, &clothcast_flatten::BffOptions::default()).unwrap();
+    let piece =
+        clothcast_flatten::flatten_piece(&m, &clothcast_flatten::BffOptions::default(), &Default::default()).unwrap();
     let s = &piece.flattening.stats;
     println!("{:?}: {s:?}", piece.outline_repair);
     assert!(piece.outline_simple);
@@ -159,7 +160,7 @@ fn a_self_crossing_outline_is_made_simple() {
     assert!(s.boundary_length_error_max_rel < 0.05, "{s:?}");
     // A piece that needs nothing is left as BFF made it.
     let grid = shapes::grid(8, 6, 0.4, 0.3);
-    let fine = clothcast_flatten::flatten_piece(&grid, &Default::default()).unwrap();
+    let fine = clothcast_flatten::flatten_piece(&grid, &Default::default(), &Default::default()).unwrap();
     let direct = clothcast_flatten::bff_flatten(&grid, &Default::default()).unwrap();
     assert!(fine.outline_simple && fine.outline_repair.is_none() && !fine.retried);
     assert_eq!(fine.flattening.uv, direct.uv);
