@@ -171,7 +171,8 @@ pub struct SimStats {
     pub mean_displacement_m: f64,
     /// Vertices with at least one constrained direction.
     pub fixed_vertices: usize,
-    /// Liquid volume at equilibrium (m³).
+    /// Liquid volume at equilibrium (m³): inside the mold and below the level, every opening
+    /// (clamped, or the run is refused) closed by a flat lid across its rim.
     pub liquid_volume_m3: f64,
     /// Largest pressure at equilibrium (Pa).
     pub pressure_max_pa: f64,
@@ -395,6 +396,16 @@ pub fn simulate(
     if let Some(hy) = &hydro {
         for f in mesh.face_ids() {
             liquid += hy.face_liquid_volume(&mesh.face_vertices(f).map(|v| positions[v]));
+        }
+        // An opening below the level is clamped (or the run is refused: the liquid would spill),
+        // its frame holding the liquid in: each boundary loop is closed by a flat lid, a fan
+        // from its centroid oriented as the mesh. (Without it the sum is the volume between the
+        // surface and the level: a dome held at its rim on the floor came out negative.)
+        for lp in mesh.boundary_loops() {
+            let centroid = lp.iter().map(|&h| positions[mesh.tail(h)]).sum::<Vec3>() / lp.len() as f64;
+            for &h in lp {
+                liquid += hy.face_liquid_volume(&[positions[mesh.head(h)], positions[mesh.tail(h)], centroid]);
+            }
         }
         let deepest = positions.iter().map(|p| hy.depth(p)).fold(0.0, f64::max);
         pmax += hy.rho_g * deepest;
