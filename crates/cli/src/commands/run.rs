@@ -14,8 +14,14 @@ use clothcast_mesh::FaceId;
 use clothcast_mesh::io::write_atomic;
 use std::time::Instant;
 
-/// Layouts made again, smaller, when a piece did not fit the roll.
+/// Layouts made again, smaller, when a piece did not fit the roll (unless the same pieces come
+/// back) ...
 const ROLL_RETRIES: usize = 4;
+/// ... and more, up to this many, while they help: fewer pieces too wide, or a smaller largest
+/// overhang, than the layout before ...
+const ROLL_RETRIES_MAX: usize = 8;
+/// ... ending after this many in a row that did not.
+const ROLL_STALLS: usize = 2;
 
 /// Most layouts made again to split badly distorted pieces.
 const DISTORTION_RETRIES: usize = 2;
@@ -103,11 +109,12 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // Stages 3 and 4: segmentation, flattening and patterns. The layout splits patches wider
     // than the roll allows (by their extent on the surface); pieces that still do not fit
     // once flattened (a flattening stretches) are split in a new layout, each to its share of
-    // the roll, up to `ROLL_RETRIES` times.
+    // the roll, up to `ROLL_RETRIES` times, and up to `ROLL_RETRIES_MAX` while that helps.
     let mut hints: Vec<SplitHint> = Vec::new();
     let mut retries = 0;
-    // The pieces too wide last time, and how many layouts in a row have given the same.
-    let (mut last_too_wide, mut repeats): (Vec<(u32, f64)>, usize) = (Vec::new(), 0);
+    // The pieces too wide last time, how many layouts in a row have given the same, and how
+    // many in a row have not helped.
+    let (mut last_too_wide, mut repeats, mut stalls): (Vec<(u32, f64)>, usize, usize) = (Vec::new(), 0, 0);
     // Layouts made again to split badly distorted pieces, and the least distorted complete
     // layout so far.
     let mut distortion_retries = 0;
@@ -141,11 +148,18 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 redone_seconds += attempt.elapsed().as_secs_f64();
                 // The same pieces may come back (the layout measures a patch before its seams
                 // are straightened, which can widen it): their hints are then cut further, so
-                // every new layout asks more, up to ROLL_RETRIES. The same pieces a third time
+                // every new layout asks more (see ROLL_RETRIES). The same pieces a third time
                 // in a row: the layout could not split them (too few faces, or no cut into two
                 // disks), and it would not next time either.
                 repeats = if pieces == last_too_wide { repeats + 1 } else { 0 };
-                if retries == ROLL_RETRIES || repeats >= 2 {
+                // Progress: fewer pieces too wide, or the largest overhang smaller. A layout
+                // made again moves other patches too, so a new piece can take an old one's
+                // place while the overhang shrinks (the dome at 2 m: 37, 8, 3, 1, 1, ... pieces).
+                let overhang = |p: &[(u32, f64)]| p.iter().map(|&(_, r)| r).fold(0.0, f64::max);
+                let helped =
+                    retries == 0 || pieces.len() < last_too_wide.len() || overhang(&pieces) < overhang(&last_too_wide);
+                stalls = if helped { 0 } else { stalls + 1 };
+                if retries == ROLL_RETRIES_MAX || repeats >= 2 || (retries >= ROLL_RETRIES && stalls >= ROLL_STALLS) {
                     stages::segmentation::write_outputs(&args.out, &input, &seg)?;
                     return Err(Failure::Input(anyhow::anyhow!(
                         "{e} (after {} layout(s) splitting the pieces too wide: a patch with too few faces, or one no cut \
