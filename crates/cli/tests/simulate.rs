@@ -158,6 +158,35 @@ fn supports_and_explicit_vertices() {
     assert_eq!(summary(&out)["simulation"]["fixed_vertices"], 6);
 }
 
+/// A bowl (the hemisphere turned over) hung from four rim vertices and filled to 10 mm below its
+/// rim: the free rim sags below the level under the load, and the run warns that the liquid
+/// would spill there (the check before the solve sees the rim above the level). Its liquid
+/// volume counts the lid across the rim.
+#[test]
+fn a_rim_sagging_below_the_level_is_warned_about() {
+    let out = tmpdir("bowl");
+    let cfg = out.join("bowl.toml");
+    std::fs::write(
+        &cfg,
+        "[mesh]\nup = \"-z\"\n[suspension]\nmode = \"vertices\"\nvertices = [1826, 799, 1151, 1496]\n\
+         [infill]\nfill_level = 0.29\n",
+    )
+    .unwrap();
+    let mesh = data("open/hemisphere.off");
+    let args = ["simulate", mesh.to_str().unwrap(), "--height", "0.3", "-q", "-c", cfg.to_str().unwrap()];
+    let o = run(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("below the liquid level at equilibrium: the liquid would spill there"), "{}", text(&o));
+    let liquid = summary(&out)["simulation"]["liquid_volume_m3"].as_f64().unwrap();
+    assert!(liquid > 0.05, "{liquid}");
+    // Clamped all round, nothing sags free: no warning.
+    std::fs::write(&cfg, "[mesh]\nup = \"-z\"\n[suspension]\nmode = \"boundary\"\n[infill]\nfill_level = 0.29\n")
+        .unwrap();
+    let o = run(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(!text(&o).contains("would spill"), "{}", text(&o));
+}
+
 #[test]
 fn bench_reports_iterations_and_factorization_floor() {
     let o = run(&["bench", "--json"]);

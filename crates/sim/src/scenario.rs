@@ -172,7 +172,9 @@ pub struct SimStats {
     /// Vertices with at least one constrained direction.
     pub fixed_vertices: usize,
     /// Liquid volume at equilibrium (m³): inside the mold and below the level, every opening
-    /// (clamped, or the run is refused) closed by a flat lid across its rim.
+    /// closed by a lid across its rim (a fan from the mean of its vertices, flat when the rim is
+    /// planar): openings below the level are clamped (else the run is refused), and a lid above
+    /// the level adds nothing.
     pub liquid_volume_m3: f64,
     /// Largest pressure at equilibrium (Pa).
     pub pressure_max_pa: f64,
@@ -398,10 +400,28 @@ pub fn simulate(
             liquid += hy.face_liquid_volume(&mesh.face_vertices(f).map(|v| positions[v]));
         }
         // An opening below the level is clamped (or the run is refused: the liquid would spill),
-        // its frame holding the liquid in: each boundary loop is closed by a flat lid, a fan
-        // from its centroid oriented as the mesh. (Without it the sum is the volume between the
-        // surface and the level: a dome held at its rim on the floor came out negative.)
-        for lp in mesh.boundary_loops() {
+        // its frame holding the liquid in: each boundary loop is closed by a lid, a fan from
+        // the mean of its vertices oriented as the mesh (flat when the rim is planar; a lid
+        // above the level adds nothing). Without it the sum is the volume between the surface
+        // and the level: a dome held at its rim on the floor came out negative.
+        for (li, lp) in mesh.boundary_loops().iter().enumerate() {
+            // A free stretch of rim above the level at rest may have sagged below it.
+            let sag = lp
+                .iter()
+                .map(|&h| mesh.tail(h))
+                .filter(|&v| constraints.n_fixed(v) < 3)
+                .map(|v| (v, hy.depth(&positions[v])))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((v, d)) = sag
+                && d > 1e-3 * (top - low)
+            {
+                tracing::warn!(
+                    "boundary loop {li}: free vertex {} sags {:.1} mm below the liquid level at equilibrium: the liquid \
+                     would spill there (clamp that stretch of rim, or lower [infill] fill_level)",
+                    v.idx(),
+                    d * 1e3
+                );
+            }
             let centroid = lp.iter().map(|&h| positions[mesh.tail(h)]).sum::<Vec3>() / lp.len() as f64;
             for &h in lp {
                 liquid += hy.face_liquid_volume(&[positions[mesh.head(h)], positions[mesh.tail(h)], centroid]);

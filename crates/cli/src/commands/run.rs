@@ -17,8 +17,8 @@ use std::time::Instant;
 /// Layouts made again, smaller, when a piece did not fit the roll (unless the same pieces come
 /// back) ...
 const ROLL_RETRIES: usize = 4;
-/// ... and more, up to this many, while they help: fewer pieces too wide, or a smaller largest
-/// overhang, than the layout before ...
+/// ... and more, up to this many, while they help: fewer pieces too wide than the best layout
+/// so far, or as many with a smaller largest overhang ...
 const ROLL_RETRIES_MAX: usize = 8;
 /// ... ending after this many in a row that did not.
 const ROLL_STALLS: usize = 2;
@@ -109,12 +109,15 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // Stages 3 and 4: segmentation, flattening and patterns. The layout splits patches wider
     // than the roll allows (by their extent on the surface); pieces that still do not fit
     // once flattened (a flattening stretches) are split in a new layout, each to its share of
-    // the roll, up to `ROLL_RETRIES` times, and up to `ROLL_RETRIES_MAX` while that helps.
+    // the roll, up to `ROLL_RETRIES` times, then up to `ROLL_RETRIES_MAX` until two in a row
+    // do not help.
     let mut hints: Vec<SplitHint> = Vec::new();
     let mut retries = 0;
     // The pieces too wide last time, how many layouts in a row have given the same, and how
     // many in a row have not helped.
     let (mut last_too_wide, mut repeats, mut stalls): (Vec<(u32, f64)>, usize, usize) = (Vec::new(), 0, 0);
+    // The fewest pieces too wide so far, and their largest overhang.
+    let mut best_fit = (usize::MAX, f64::INFINITY);
     // Layouts made again to split badly distorted pieces, and the least distorted complete
     // layout so far.
     let mut distortion_retries = 0;
@@ -156,8 +159,13 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 // made again moves other patches too, so a new piece can take an old one's
                 // place while the overhang shrinks (the dome at 2 m: 37, 8, 3, 1, 1, ... pieces).
                 let overhang = |p: &[(u32, f64)]| p.iter().map(|&(_, r)| r).fold(0.0, f64::max);
-                let helped =
-                    retries == 0 || pieces.len() < last_too_wide.len() || overhang(&pieces) < overhang(&last_too_wide);
+                // Against the best layout so far (fewer pieces too wide, or as many with the
+                // largest overhang at least 0.1% smaller), so that a swing back and forth stalls.
+                let now = (pieces.len(), overhang(&pieces));
+                let helped = retries == 0 || now.0 < best_fit.0 || (now.0 == best_fit.0 && now.1 < best_fit.1 * 0.999);
+                if helped {
+                    best_fit = now;
+                }
                 stalls = if helped { 0 } else { stalls + 1 };
                 if retries == ROLL_RETRIES_MAX || repeats >= 2 || (retries >= ROLL_RETRIES && stalls >= ROLL_STALLS) {
                     stages::segmentation::write_outputs(&args.out, &input, &seg)?;
