@@ -79,7 +79,8 @@ fn check_run(out: &Path) -> Value {
     assert_eq!(fl["flipped_triangles"], 0);
     assert_eq!(fl["orientation"], "field");
     assert!(fl["qc_mean"].as_f64().unwrap() <= 1.05);
-    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() <= 0.005);
+    let limit = if fl["repaired_vertices"].as_u64().unwrap() > 0 { 0.005 } else { 1e-9 };
+    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() <= limit, "{fl}");
     let pieces = pt["pieces"].as_u64().unwrap() as usize;
     assert_eq!(pieces as u64, s["segmentation"]["patches"].as_u64().unwrap());
     let per_piece = fl["per_piece"].as_array().unwrap();
@@ -149,7 +150,8 @@ fn a_self_crossing_outline_is_repaired_and_cut() {
     assert_eq!(fl["outlines_not_simple"], 0);
     assert_eq!(fl["flipped_triangles"], 0);
     assert!(fl["outlines_repaired"].as_u64().unwrap() >= 1, "{fl}");
-    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() < 0.1, "{fl}");
+    // Uncurled by turning, the outline keeps its lengths: the seams still match.
+    assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() < 1e-9, "{fl}");
     assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
     assert_eq!(cut_pieces(&out) as u64, s["patterns"]["pieces"].as_u64().unwrap());
 }

@@ -28,6 +28,13 @@
 //!    the 1/ℓ-weighted norm); boundary positions are the cumulative sums of ℓ̃_j T_j. This
 //!    changes the boundary lengths slightly: the change is reported as
 //!    [`FlatteningStats::boundary_length_error_max_rel`].
+//!
+//!    3′. By default ([`BffOptions::exact_lengths`]) the curve is closed by turning instead:
+//!    the target curvature changes by the least dual-length-weighted amounts that close the
+//!    polygon with every edge at ℓ* (Gauss–Newton on the gap, a 3×3 system per step), so both
+//!    sides of every seam keep their 3D length (to ~10⁻¹² of the boundary's; the round-off gap
+//!    is spread by the best-fit formula); the best-fit curve above is the fallback when that
+//!    does not converge or would fold the outline. Not in the paper.
 //! 4. Extension: harmonic `A_II x_I = −A_IB x_B`, same for y.
 //!
 //! One Cholesky factorization of A_II (symbolic analysis and numeric factor from
@@ -86,7 +93,8 @@ pub struct BffOptions {
     /// vertices `first..=last` (positions along `boundary_loops()[0]`, cyclic) is scaled by
     /// 1 − `fraction`, and what it loses is spread over the other boundary vertices by dual
     /// length (a uniform curvature density: the rest of the outline bends a little, its
-    /// corners stay as sharp). Used to uncurl a stretch of outline that loops over itself
+    /// corners stay as sharp; closed by turning, [`BffOptions::exact_lengths`], the stretch
+    /// gets a little of it back). Used to uncurl a stretch of outline that loops over itself
     /// ([`crate::pieces`]). `None` (the default): the curvature as BFF gives it.
     pub boundary_relief: Option<BoundaryRelief>,
     /// Build the Laplacian on the intrinsic Delaunay triangulation of the patch (the same
@@ -94,6 +102,12 @@ pub struct BffOptions {
     /// non-negative) instead of the mesh's own edges. Default `false`; [`crate::pieces`] uses
     /// it on a piece whose flattening came out badly distorted (sliver triangles).
     pub intrinsic_delaunay: bool,
+    /// Close the boundary curve by turning, not by length: the target curvature is changed by
+    /// the least (dual-length-weighted) amounts that close the polygon with every boundary
+    /// edge at its 3D length, so the two sides of every seam come out the same length. When
+    /// that does not converge, the lengths are changed instead (the paper's best-fit curve).
+    /// Default `true`.
+    pub exact_lengths: bool,
 }
 
 /// A stretch of boundary whose turning is reduced ([`BffOptions::boundary_relief`]).
@@ -115,6 +129,7 @@ impl Default for BffOptions {
             boundary_smoothing: 0.0,
             boundary_relief: None,
             intrinsic_delaunay: false,
+            exact_lengths: true,
         }
     }
 }
@@ -407,6 +422,8 @@ pub struct BffProblem<'m> {
     dual: Vec<f64>,
     /// The boundary's length.
     total_len: f64,
+    /// [`BffOptions::exact_lengths`].
+    exact_lengths: bool,
 }
 
 impl<'m> BffProblem<'m> {
@@ -472,7 +489,7 @@ impl<'m> BffProblem<'m> {
             kt[j] += residual * dual[j] / total_len;
         }
         tracing::debug!(residual, "BFF: curvature closing residual");
-        Ok(Self { mesh, b, factor, u, kt, lengths, dual, total_len })
+        Ok(Self { mesh, b, factor, u, kt, lengths, dual, total_len, exact_lengths: options.exact_lengths })
     }
 
     /// The flattening with the target boundary curvature relieved and smoothed as
@@ -511,15 +528,15 @@ impl<'m> BffProblem<'m> {
             kt = smooth_boundary_curvature(&kt, lengths, dual, smoothing * total_len * total_len)?;
         }
 
-        // Eq. 3: tangents, closed lengths, boundary curve.
-        let mut tangents = Vec::with_capacity(nb);
-        let mut phi = 0.0;
-        for j in 0..nb {
-            if j > 0 {
-                phi += kt[j];
+        // Eq. 3: tangents, closed lengths, boundary curve (or, Eq. 3′, the curvature closed
+        // with the lengths kept).
+        if self.exact_lengths {
+            match close_by_turning(&kt, lengths, dual) {
+                Some(k) => kt = k,
+                None => tracing::debug!(boundary = nb, "BFF: not closed by turning; the best-fit curve instead"),
             }
-            tangents.push(Vec2::new(phi.cos(), phi.sin()));
         }
+        let tangents = boundary_tangents(&kt);
         // M = T N⁻¹ Tᵀ = Σ ℓ_j T_j T_jᵀ, r = T ℓ*.
         let (mut m00, mut m01, mut m11, mut r) = (0.0, 0.0, 0.0, Vec2::zeros());
         for j in 0..nb {
@@ -537,6 +554,8 @@ impl<'m> BffProblem<'m> {
             });
         }
         let lambda = Vec2::new(m11 * r.x - m01 * r.y, m00 * r.y - m01 * r.x) / det;
+        // (Closed by turning, the gap is round-off, and so is this correction: it spreads the
+        // gap over the edges instead of leaving it all to the last one.)
         let closed: Vec<f64> = (0..nb).map(|j| lengths[j] - lengths[j] * tangents[j].dot(&lambda)).collect();
         if let Some(j) = closed.iter().position(|&l| !(l > 0.0)) {
             tracing::warn!(edge = j, length = closed[j], "BFF: a closed boundary length is not positive");
@@ -579,6 +598,69 @@ impl<'m> BffProblem<'m> {
         );
         Ok(Flattening { uv, stats })
     }
+}
+
+/// Unit tangents of the boundary edges: edge j turns by φ_j = Σ_{0 < m ≤ j} k_m from edge 0.
+fn boundary_tangents(k: &[f64]) -> Vec<Vec2> {
+    let mut phi = 0.0;
+    (0..k.len())
+        .map(|j| {
+            if j > 0 {
+                phi += k[j];
+            }
+            Vec2::new(phi.cos(), phi.sin())
+        })
+        .collect()
+}
+
+/// Eq. 3′: the boundary curvature `k` (Σ = 2π) changed by the least amounts δ, in the norm
+/// Σ δ_j² / w_j (w the dual lengths: a change spread as a curvature density), that close the
+/// polygon with edge lengths `len`, Σ δ = 0 keeping the total turning. Gauss–Newton on the
+/// closing gap g = Σ ℓ_j T_j (∂g/∂k_i = Σ_{j ≥ i} ℓ_j T_j^⊥; k_0 only closes the turning):
+/// each step is the point nearest to `k` (not to the last iterate) on the linearised
+/// constraints, a 3×3 system, so the result does not depend on where the loop starts. None,
+/// for the best-fit curve instead, if it does not close to 10⁻¹² of the boundary length within
+/// 30 steps, or if a vertex's turning would change by more than 0.5 rad or reach ±π (a fold).
+fn close_by_turning(k: &[f64], len: &[f64], w: &[f64]) -> Option<Vec<f64>> {
+    let n = k.len();
+    let total: f64 = len.iter().sum();
+    if n < 3 || !(total > 0.0) {
+        return None;
+    }
+    let w: Vec<f64> = w.iter().map(|&x| if x > 0.0 { x } else { 0.0 }).collect();
+    let mut kk = k.to_vec();
+    for _ in 0..=30 {
+        let t = boundary_tangents(&kk);
+        let gap: Vec2 = (0..n).map(|j| len[j] * t[j]).sum();
+        if gap.norm() <= 1e-12 * total {
+            let sound = (0..n).all(|j| (kk[j] - k[j]).abs() <= 0.5 && (kk[j].abs() < PI || k[j].abs() >= PI));
+            return sound.then_some(kk);
+        }
+        // Constraint rows A: the gap's Jacobian (columns S_i = Σ_{j ≥ i} ℓ_j T_j^⊥ for i ≥ 1,
+        // S_0 = 0) and the sum; the step x − k = W Aᵀ μ with A W Aᵀ μ = b + A (kk − k),
+        // b = (−g, Σk − Σkk).
+        let mut cols = vec![nalgebra::Vector3::new(0.0, 0.0, 1.0); n];
+        let mut acc = Vec2::zeros();
+        for j in (1..n).rev() {
+            acc += len[j] * Vec2::new(-t[j].y, t[j].x);
+            cols[j] = nalgebra::Vector3::new(acc.x, acc.y, 1.0);
+        }
+        let mut m = nalgebra::Matrix3::<f64>::zeros();
+        let mut rhs = nalgebra::Vector3::new(-gap.x, -gap.y, 0.0);
+        for i in 0..n {
+            m += w[i] * cols[i] * cols[i].transpose();
+            rhs += cols[i] * (kk[i] - k[i]);
+        }
+        rhs.z -= kk.iter().sum::<f64>() - k.iter().sum::<f64>();
+        let mu = m.lu().solve(&rhs)?;
+        if !mu.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        for i in 0..n {
+            kk[i] = k[i] + w[i] * cols[i].dot(&mu);
+        }
+    }
+    None
 }
 
 /// Singular values σ1 ≥ σ2 ≥ 0 of a 2×2 matrix [[a, b], [c, d]] (closed form).
@@ -711,6 +793,40 @@ mod tests {
         assert_eq!(s.flipped_triangles, 0);
         assert!(s.boundary_length_error_max_rel < 1e-14, "{s:?}");
         assert!((s.area_ratio - 1.0).abs() < 1e-14 && (s.qc_max - 1.0).abs() < 1e-12, "{s:?}");
+    }
+
+    /// Closing by turning: a 12-gon whose turnings and lengths do not close comes out closed
+    /// with its lengths, its total turning kept, the changes small; started from another
+    /// vertex of the loop it changes the same vertices by the same amounts.
+    #[test]
+    fn closing_by_turning_is_the_least_change() {
+        let n = 12;
+        let len: Vec<f64> = (0..n).map(|j| 1.0 + 0.3 * (j as f64 * 1.3).sin()).collect();
+        let mut k: Vec<f64> = (0..n).map(|j| 2.0 * PI / n as f64 + 0.05 * (j as f64 * 2.1).cos()).collect();
+        let excess = k.iter().sum::<f64>() - 2.0 * PI;
+        k.iter_mut().for_each(|x| *x -= excess / n as f64);
+        let w: Vec<f64> = (0..n).map(|j| 0.5 * (len[j] + len[(j + n - 1) % n])).collect();
+        let gap = |k: &[f64]| -> f64 {
+            let t = boundary_tangents(k);
+            (0..n).map(|j| len[j] * t[j]).sum::<Vec2>().norm()
+        };
+        assert!(gap(&k) > 0.05, "the test polygon does not close: {}", gap(&k));
+        let kk = close_by_turning(&k, &len, &w).expect("closes");
+        assert!(gap(&kk) < 1e-12 * len.iter().sum::<f64>(), "{}", gap(&kk));
+        assert!((kk.iter().sum::<f64>() - k.iter().sum::<f64>()).abs() < 1e-12);
+        let delta: Vec<f64> = (0..n).map(|j| kk[j] - k[j]).collect();
+        assert!(delta.iter().all(|d| d.abs() < 0.1), "{delta:?}");
+        // The same loop started at vertex 5.
+        let rot = |v: &[f64]| -> Vec<f64> { (0..n).map(|j| v[(j + 5) % n]).collect() };
+        let kk5 = close_by_turning(&rot(&k), &rot(&len), &rot(&w)).expect("closes");
+        for j in 0..n {
+            assert!((kk5[j] - rot(&k)[j] - delta[(j + 5) % n]).abs() < 1e-6, "vertex {j}");
+        }
+        // A curve that cannot close without folding (one edge longer than all the others
+        // together) is left to the best-fit curve.
+        let mut long = len.clone();
+        long[0] = 100.0;
+        assert!(close_by_turning(&k, &long, &w).is_none());
     }
 
     #[test]

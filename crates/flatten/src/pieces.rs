@@ -591,9 +591,10 @@ pub enum OutlineRepair {
 /// flattened again with the looping stretch's turning reduced ([`BffOptions::boundary_relief`],
 /// the least fraction that makes the outline simple without more flipped triangles), or
 /// failing that with the whole boundary curvature smoothed
-/// ([`BffOptions::boundary_smoothing`]). The boundary lengths are kept up to the curve's
-/// closing (a few percent near the loop), so the seams still nearly match; the triangles along
-/// the loop take the distortion.
+/// ([`BffOptions::boundary_smoothing`]). The curve is closed by turning
+/// ([`BffOptions::exact_lengths`]), so the boundary lengths are kept and the seams still match
+/// (should that closing fail, the best-fit curve changes them by up to a few percent near the
+/// loop); the triangles along the loop take the distortion.
 ///
 /// # Errors
 /// Those of [`bff_flatten`] on the first flattening.

@@ -430,10 +430,12 @@ fn boundary_relief_straightens_its_stretch() {
     let corners: Vec<usize> = (0..n).filter(|&j| is_corner(lp[j])).collect();
     assert_eq!(corners.len(), 4);
     let c = corners[1];
+    // (The curve closed by length: closing it by turning would give the corner a little back.)
     let fl = bff_flatten(
         &rect,
         &BffOptions {
             boundary_relief: Some(BoundaryRelief { first: c, last: c, fraction: 1.0 }),
+            exact_lengths: false,
             ..Default::default()
         },
     )
@@ -451,6 +453,32 @@ fn boundary_relief_straightens_its_stretch() {
         assert!(t > std::f64::consts::FRAC_PI_2 && t < std::f64::consts::FRAC_PI_2 + 0.1, "corner {k}: {t}");
     }
     assert_eq!(fl.stats.flipped_triangles, 0);
+}
+
+/// The boundary curve closed by turning keeps every boundary edge at its 3D length (so both
+/// sides of a seam match), where the paper's best-fit curve changes them; the interior stays
+/// as conformal. An asymmetric piece of a coarse sphere (the best-fit curve's change grows with
+/// the discretisation error): a cap cut by a plane through its side.
+#[test]
+fn closing_by_turning_keeps_the_boundary_lengths() {
+    let sphere = shapes::icosphere(2, 1.0);
+    let faces: Vec<FaceId> = sphere
+        .face_ids()
+        .filter(|&f| {
+            let c = sphere.face_centroid(f);
+            c.z > 0.3 && c.x + 0.5 * c.y > -0.4
+        })
+        .collect();
+    let m = disk(&sphere, &faces).expect("a disk");
+    let exact = bff_flatten(&m, &BffOptions::default()).unwrap();
+    let fitted = bff_flatten(&m, &BffOptions { exact_lengths: false, ..Default::default() }).unwrap();
+    let (e, f) = (&exact.stats, &fitted.stats);
+    println!("closed by turning: {e:?}\nclosed by length: {f:?}");
+    assert!(e.boundary_length_error_max_rel < 1e-9, "{e:?}");
+    assert!(f.boundary_length_error_max_rel > 1e-5, "the best-fit curve changes the lengths: {f:?}");
+    assert_eq!(e.flipped_triangles, 0);
+    assert!(e.qc_mean < f.qc_mean + 0.01 && e.qc_max < 1.2, "{e:?} against {f:?}");
+    assert!(signed_area(&m, &exact.uv) > 0.0);
 }
 
 /// A prepared problem (one factorization) gives exactly the flattenings of `bff_flatten` with

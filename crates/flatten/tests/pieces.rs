@@ -55,7 +55,9 @@ fn every_patch_flattens_without_flips_and_seams_match() {
             flat.patches.iter().all(|p| clothcast_flatten::outline_crossing(&p.uv, &p.outline).is_none()),
             "{name}"
         );
-        let limit = if r.outlines_repaired > 0 { 0.03 } else { 0.005 };
+        // The outline closed by turning: both sides of a seam are its 3D edges' lengths (an
+        // untangling that moves the outline may change them by up to 0.5%).
+        let limit = if r.repaired_vertices > 0 { 0.005 } else { 1e-9 };
         assert!(
             r.seam_length_mismatch_max_rel <= limit,
             "{name}: seam sides differ by {} ({} outlines repaired)",
