@@ -663,8 +663,17 @@ fn close_by_turning(k: &[f64], len: &[f64], w: &[f64]) -> Option<Vec<f64>> {
     None
 }
 
+/// A 3D triangle in its own frame, its edges from corner 0 e1 ↦ (l1, 0) and e2 ↦ (c, h):
+/// (l1, c, h, twice its area). Not finite for a triangle without area.
+pub(crate) fn rest_frame(p: &[Vec3; 3]) -> (f64, f64, f64, f64) {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let twice_area = e1.cross(&e2).norm();
+    let l1 = e1.norm();
+    (l1, e1.dot(&e2) / l1, twice_area / l1, twice_area)
+}
+
 /// Singular values σ1 ≥ σ2 ≥ 0 of a 2×2 matrix [[a, b], [c, d]] (closed form).
-fn singular_values(a: f64, b: f64, c: f64, d: f64) -> (f64, f64) {
+pub(crate) fn singular_values(a: f64, b: f64, c: f64, d: f64) -> (f64, f64) {
     let (e, f, g, h) = ((a + d) / 2.0, (a - d) / 2.0, (c + b) / 2.0, (c - b) / 2.0);
     let (q, r) = (e.hypot(h), f.hypot(g));
     (q + r, (q - r).abs())
@@ -682,11 +691,9 @@ pub fn distortion(mesh: &Mesh, uv: &VertexData<Vec2>) -> FlatteningStats {
     let (mut rmin, mut rmax) = (f64::INFINITY, f64::NEG_INFINITY);
     let (mut qc_sum, mut qc_max) = (0.0, 1.0f64);
     for f in mesh.face_ids() {
-        let p = mesh.face_positions(f);
+        let (l1, c, h, a3x2) = rest_frame(&mesh.face_positions(f));
         let q = mesh.face_vertices(f).map(|v| uv[v]);
-        let (e1, e2): (Vec3, Vec3) = (p[1] - p[0], p[2] - p[0]);
         let (d1, d2) = (q[1] - q[0], q[2] - q[0]);
-        let a3x2 = e1.cross(&e2).norm();
         let a2x2 = d1.x * d2.y - d1.y * d2.x;
         if !(a2x2 > 0.0) {
             flipped += 1;
@@ -701,9 +708,7 @@ pub fn distortion(mesh: &Mesh, uv: &VertexData<Vec2>) -> FlatteningStats {
         let ratio = a2x2 / a3x2;
         rmin = rmin.min(ratio);
         rmax = rmax.max(ratio);
-        // 3D triangle in its own frame: e1 ↦ (l1, 0), e2 ↦ (c, h); J = [d1 d2] E3⁻¹.
-        let l1 = e1.norm();
-        let (c, h) = (e1.dot(&e2) / l1, a3x2 / l1);
+        // J = [d1 d2] E3⁻¹, E3 the 3D triangle in its own frame.
         let col1 = d1 / l1;
         let col2 = (d2 * l1 - d1 * c) / (l1 * h);
         let (s1, s2) = singular_values(col1.x, col2.x, col1.y, col2.y);

@@ -2,8 +2,9 @@
 //!
 //! **Pieces.** The segmented mesh is cut open along all seams (a seam inside a patch, a dart,
 //! is opened too) and every patch becomes a disk mesh of its own, flattened by BFF in its
-//! minimal-area-distortion mode ([`crate::bff`]): boundary lengths are kept, so the two sides
-//! of a seam keep (nearly) the same length. A flattening with flipped triangles (BFF is linear;
+//! minimal-area-distortion mode ([`crate::bff`]): boundary lengths are kept (the outline is
+//! closed by turning, [`BffOptions::exact_lengths`]), so the two sides of a seam keep the same
+//! length. A flattening with flipped triangles (BFF is linear;
 //! it happens around needle triangles of the input) is retried with a stronger cotangent floor,
 //! then untangled (`untangle.rs`): the vertices of flipped triangles and a ring or a few
 //! around them minimise a foldover-free conformal energy, the rest of the map held, so the
@@ -196,12 +197,6 @@ impl DistortionLimits {
     pub fn exceeded_by(&self, stats: &FlatteningStats) -> bool {
         !(stats.qc_mean <= self.qc_mean && stats.area_ratio_max <= self.area_spread * stats.area_ratio_min.max(0.0))
     }
-}
-
-/// Whether a flattening is badly distorted by the default limits ([`DISTORTED_QC_MEAN`],
-/// [`DISTORTED_AREA_SPREAD`]).
-pub fn is_distorted(stats: &FlatteningStats) -> bool {
-    DistortionLimits::default().exceeded_by(stats)
 }
 
 /// Flattening figures of one piece (an entry of `flattening.per_piece` in `summary.json`).
@@ -585,12 +580,12 @@ pub enum OutlineRepair {
 
 /// Flattens one disk-shaped piece by BFF ([`bff_flatten`]). Flipped triangles: retried with a
 /// stronger cotangent floor, then untangled. Flipped triangles, or a flattening over `limits`:
-/// flattened again on the intrinsic Delaunay triangulation, kept if less distorted. An outline that crosses itself, which cannot be
-/// cut (BFF lays the boundary out from its curvature, and where a patch nearly pinches, e.g.
-/// three sharp corners in a row, the curve can loop over itself with every triangle positive):
-/// flattened again with the looping stretch's turning reduced ([`BffOptions::boundary_relief`],
-/// the least fraction that makes the outline simple without more flipped triangles), or
-/// failing that with the whole boundary curvature smoothed
+/// flattened again on the intrinsic Delaunay triangulation, kept if less distorted. An outline
+/// that crosses itself, which cannot be cut (BFF lays the boundary out from its curvature, and
+/// where a patch nearly pinches, e.g. three sharp corners in a row, the curve can loop over
+/// itself with every triangle positive): flattened again with the looping stretch's turning
+/// reduced ([`BffOptions::boundary_relief`], the least fraction that makes the outline simple
+/// without more flipped triangles), or failing that with the whole boundary curvature smoothed
 /// ([`BffOptions::boundary_smoothing`]). The curve is closed by turning
 /// ([`BffOptions::exact_lengths`]), so the boundary lengths are kept and the seams still match
 /// (should that closing fail, the best-fit curve changes them by up to a few percent near the

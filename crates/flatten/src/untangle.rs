@@ -32,6 +32,7 @@
 //!
 //! Written here: the regions are a few dozen vertices, and no crate minimises this energy.
 
+use crate::bff::{rest_frame, singular_values};
 use clothcast_mesh::{FaceId, Mesh, Vec2, VertexData, VertexId};
 use std::collections::BTreeSet;
 
@@ -64,11 +65,7 @@ impl FaceMaps {
         let mut g = Vec::with_capacity(mesh.n_faces());
         let mut area = Vec::with_capacity(mesh.n_faces());
         for f in mesh.face_ids() {
-            let p = mesh.face_positions(f);
-            let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-            let l1 = e1.norm();
-            let a2 = e1.cross(&e2).norm();
-            let (c, h) = (e1.dot(&e2) / l1, a2 / l1);
+            let (l1, c, h, a2) = rest_frame(&mesh.face_positions(f));
             // The 3D triangle in its own frame: Dm = [[l1, c], [0, h]]; its inverse's rows r0, r1.
             let r0 = Vec2::new(1.0 / l1, -c / (l1 * h));
             let r1 = Vec2::new(0.0, 1.0 / h);
@@ -239,14 +236,18 @@ pub(crate) fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
     let maps = FaceMaps::new(mesh);
     let original = uv.clone();
     let seeds: BTreeSet<VertexId> = bad.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
+    // The seeds grown by 0, 1, … rings (each grown once, for all the tries).
+    let most = TRIES.iter().map(|&(rings, _)| rings).max().unwrap_or(0);
+    let mut ringed = vec![seeds.clone()];
+    for k in 0..most {
+        let mut next = ringed[k].clone();
+        grow(mesh, &mut next, 1);
+        ringed.push(next);
+    }
     let regions: Vec<BTreeSet<VertexId>> = TRIES
         .iter()
         .map(|&(rings, with_boundary)| {
-            let mut region = seeds.clone();
-            for _ in 0..rings {
-                let grown: Vec<VertexId> = region.iter().flat_map(|&v| mesh.vertex_neighbors(v)).collect();
-                region.extend(grown);
-            }
+            let mut region = ringed[rings].clone();
             // The boundary vertices that may move are the flipped faces' own: the energy is
             // scale invariant and would let a free stretch of outline drift off its lengths.
             region.retain(|&v| !mesh.is_boundary_vertex(v) || (with_boundary && seeds.contains(&v)));
@@ -309,15 +310,19 @@ pub(crate) fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
     }
 }
 
-/// The ratio of J's singular values (infinite for a flipped or collapsed J).
+/// The ratio of J's singular values, as [`crate::bff::distortion`] measures it (infinite for a
+/// flipped or collapsed J).
 fn quasi_conformal(j: &[[f64; 2]; 2]) -> f64 {
-    let t = j[0][0].powi(2) + j[0][1].powi(2) + j[1][0].powi(2) + j[1][1].powi(2);
-    let d = det(j);
-    if !(d > 0.0) {
-        return f64::INFINITY;
+    let (s1, s2) = singular_values(j[0][0], j[0][1], j[1][0], j[1][1]);
+    if det(j) > 0.0 && s2 > 0.0 { s1 / s2 } else { f64::INFINITY }
+}
+
+/// `set` grown by `rings` rings of neighbours.
+fn grow(mesh: &Mesh, set: &mut BTreeSet<VertexId>, rings: usize) {
+    for _ in 0..rings {
+        let grown: Vec<VertexId> = set.iter().flat_map(|&v| mesh.vertex_neighbors(v)).collect();
+        set.extend(grown);
     }
-    // s1² + s2² = t, s1 s2 = d: s1/s2 = (t + √(t² − 4d²)) / (2d).
-    (t + (t * t - 4.0 * d * d).max(0.0).sqrt()) / (2.0 * d)
 }
 
 /// Minimise the region's foldover-free energy, ε lowered until the region's faces are unfolded,
@@ -397,10 +402,7 @@ pub(crate) fn untangle_tutte(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
         let with_boundary = round >= 6;
         // The vertices of flipped faces grown by a few rings.
         let mut set: BTreeSet<VertexId> = bad.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
-        for _ in 0..(round % 6) / 2 + 1 {
-            let grown: Vec<VertexId> = set.iter().flat_map(|&v| neighbours[v.idx()].iter().copied()).collect();
-            set.extend(grown);
-        }
+        grow(mesh, &mut set, (round % 6) / 2 + 1);
         set.retain(|&v| with_boundary || !mesh.is_boundary_vertex(v));
         for _ in 0..20 {
             for &v in &set {
@@ -472,10 +474,7 @@ mod tests {
         assert_eq!(s.flipped_triangles, 0);
         // Only the thrown vertex's neighbourhood (two rings) moved.
         let mut near: BTreeSet<VertexId> = BTreeSet::from([thrown]);
-        for _ in 0..2 {
-            let grown: Vec<VertexId> = near.iter().flat_map(|&v| m.vertex_neighbors(v)).collect();
-            near.extend(grown);
-        }
+        grow(&m, &mut near, 2);
         assert!(m.vertices().filter(|v| !near.contains(v)).all(|v| uv[v] == tangled[v]));
         assert!(s.qc_max < e.qc_max + 0.02, "qc max {} against the exact map's {}", s.qc_max, e.qc_max);
         assert!((uv[thrown] - exact[thrown]).norm() < 0.02, "{:?} against {:?}", uv[thrown], exact[thrown]);

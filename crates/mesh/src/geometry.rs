@@ -214,14 +214,21 @@ impl Mesh {
                 tet(p[0], p[1], p[2])
             })
             .sum();
-        for lp in self.boundary_loops() {
-            let centroid = lp.iter().map(|&h| self.position(self.tail(h))).sum::<Vec3>() / lp.len() as f64;
-            // Cap faces run against the loop direction to close the surface consistently.
-            for &h in lp {
-                vol += tet(centroid, self.position(self.head(h)), self.position(self.tail(h)));
-            }
+        for [head, tail, centroid] in self.boundary_caps(self.positions()) {
+            vol += tet(centroid, head, tail);
         }
         vol
+    }
+
+    /// The triangles that close every boundary loop, at `positions` (the mesh's own, or a
+    /// deformed copy): a fan from the mean of the loop's vertices, each triangle
+    /// [head, tail, mean] of a loop halfedge, run against the loop so that the closed surface
+    /// is oriented as the mesh.
+    pub fn boundary_caps<'a>(&'a self, positions: &'a VertexData<Vec3>) -> impl Iterator<Item = [Vec3; 3]> + 'a {
+        self.boundary_loops().iter().flat_map(move |lp| {
+            let centroid = lp.iter().map(|&h| positions[self.tail(h)]).sum::<Vec3>() / lp.len() as f64;
+            lp.iter().map(move |&h| [positions[self.head(h)], positions[self.tail(h)], centroid])
+        })
     }
 }
 

@@ -40,6 +40,15 @@ pub enum FillLevel {
     Height(f64),
 }
 
+/// The boundary vertices not fully clamped, each with its boundary loop's index, loop by loop.
+fn free_rim<'a>(mesh: &'a Mesh, constraints: &'a Constraints) -> impl Iterator<Item = (usize, VertexId)> + 'a {
+    mesh.boundary_loops()
+        .iter()
+        .enumerate()
+        .flat_map(move |(li, lp)| lp.iter().map(move |&h| (li, mesh.tail(h))))
+        .filter(move |&(_, v)| constraints.n_fixed(v) < 3)
+}
+
 /// A simulation scenario (SI units, positions in metres).
 #[derive(Clone, Debug)]
 pub struct Scenario {
@@ -329,21 +338,15 @@ pub fn simulate(
         }
     }
     let constraints = suspension_constraints(mesh, &sc.suspension, &up)?;
-    for (li, lp) in mesh.boundary_loops().iter().enumerate() {
-        for &h in lp {
-            let v = mesh.tail(h);
-            if constraints.n_fixed(v) == 3 {
-                continue;
+    for (li, v) in free_rim(mesh, &constraints) {
+        if let Some(hy) = &hydro {
+            let d = hy.depth(&mesh.position(v));
+            if d > 1e-9 * (top - low) {
+                return Err(SimError::SpillingBoundary { boundary_loop: li, vertex: v, depth: d });
             }
-            if let Some(hy) = &hydro {
-                let d = hy.depth(&mesh.position(v));
-                if d > 1e-9 * (top - low) {
-                    return Err(SimError::SpillingBoundary { boundary_loop: li, vertex: v, depth: d });
-                }
-            }
-            if loads.head_pressure != 0.0 {
-                return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
-            }
+        }
+        if loads.head_pressure != 0.0 {
+            return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
         }
     }
     for (si, pl) in sc.supports.iter().enumerate() {
@@ -399,20 +402,17 @@ pub fn simulate(
         for f in mesh.face_ids() {
             liquid += hy.face_liquid_volume(&mesh.face_vertices(f).map(|v| positions[v]));
         }
-        // An opening below the level is clamped (or the run is refused: the liquid would spill),
-        // its frame holding the liquid in: each boundary loop is closed by a lid, a fan from
-        // the mean of its vertices oriented as the mesh (flat when the rim is planar; a lid
-        // above the level adds nothing). Without it the sum is the volume between the surface
-        // and the level: a dome held at its rim on the floor came out negative.
-        for (li, lp) in mesh.boundary_loops().iter().enumerate() {
-            // A free stretch of rim above the level at rest may have sagged below it.
-            let sag = lp
-                .iter()
-                .map(|&h| mesh.tail(h))
-                .filter(|&v| constraints.n_fixed(v) < 3)
-                .map(|v| (v, hy.depth(&positions[v])))
-                .max_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((v, d)) = sag
+        // A free stretch of rim above the level at rest may have sagged below it: its deepest
+        // vertex per loop.
+        let mut sag: Vec<Option<(VertexId, f64)>> = vec![None; mesh.boundary_loops().len()];
+        for (li, v) in free_rim(mesh, &constraints) {
+            let d = hy.depth(&positions[v]);
+            if sag[li].is_none_or(|(_, deepest)| d.total_cmp(&deepest).is_ge()) {
+                sag[li] = Some((v, d));
+            }
+        }
+        for (li, s) in sag.into_iter().enumerate() {
+            if let Some((v, d)) = s
                 && d > 1e-3 * (top - low)
             {
                 tracing::warn!(
@@ -422,10 +422,14 @@ pub fn simulate(
                     d * 1e3
                 );
             }
-            let centroid = lp.iter().map(|&h| positions[mesh.tail(h)]).sum::<Vec3>() / lp.len() as f64;
-            for &h in lp {
-                liquid += hy.face_liquid_volume(&[positions[mesh.head(h)], positions[mesh.tail(h)], centroid]);
-            }
+        }
+        // An opening below the level is clamped (or the run is refused: the liquid would spill),
+        // its frame holding the liquid in: each boundary loop is closed by a lid (a fan from the
+        // mean of its vertices, flat when the rim is planar; a lid above the level adds
+        // nothing). Without it the sum is the volume between the surface and the level: a dome
+        // held at its rim on the floor came out negative.
+        for lid in mesh.boundary_caps(&positions) {
+            liquid += hy.face_liquid_volume(&lid);
         }
         let deepest = positions.iter().map(|p| hy.depth(p)).fold(0.0, f64::max);
         pmax += hy.rho_g * deepest;
