@@ -42,4 +42,4 @@ pub mod scenario;
 pub mod system;
 
 pub use material::{Material, StVenantKirchhoff};
-pub use scenario::{FillLevel, Scenario, SimError, SimResult, SimStats, Suspension, simulate};
+pub use scenario::{FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate};

@@ -174,6 +174,13 @@ pub struct SimStats {
     pub newton_iterations: usize,
     /// Final ‖∇Π‖/‖f_ext‖.
     pub residual_rel: f64,
+    /// Where the unbalanced force is largest at the end of the solve (`None` when it is zero
+    /// everywhere): the place to look at when the solve did not converge.
+    pub largest_residual: Option<ResidualSite>,
+    /// The relative residual over the vertices below the fill level alone (the wetted part of
+    /// the mold, which gives the cast its shape; the same scale as `residual_rel`); `None`
+    /// without infill.
+    pub residual_rel_below_level: Option<f64>,
     /// Largest vertex displacement (m).
     pub max_displacement_m: f64,
     /// Mean vertex displacement (m).
@@ -199,6 +206,18 @@ pub struct SimStats {
     pub coarse_start: Option<CoarseStats>,
     /// Wall-clock seconds.
     pub seconds: f64,
+}
+
+/// A vertex where the solve left an unbalanced force.
+#[derive(Clone, Debug, Serialize)]
+pub struct ResidualSite {
+    /// The vertex (the simulated mesh's numbering, that of `deformed.ply`).
+    pub vertex: usize,
+    /// Its unbalanced force along its free axes (N).
+    pub force_n: f64,
+    /// Its height above the fill level at the end of the solve (m; negative: below, wetted);
+    /// `None` without infill.
+    pub height_above_level_m: Option<f64>,
 }
 
 /// The equilibrium.
@@ -434,6 +453,27 @@ pub fn simulate(
         let deepest = positions.iter().map(|p| hy.depth(p)).fold(0.0, f64::max);
         pmax += hy.rho_g * deepest;
     }
+    // Where the residual sits: per vertex, the unbalanced force along its free axes (their
+    // squares sum to ‖∇Π‖², of which the relative residual is the share of the force scale).
+    let unbalanced: Vec<f64> =
+        res.world_gradient.iter().enumerate().map(|(v, g)| sys.residual_force(v, g).norm()).collect();
+    let gnorm = unbalanced.iter().map(|f| f * f).sum::<f64>().sqrt();
+    let largest_residual =
+        unbalanced.iter().enumerate().filter(|&(_, &f)| f > 0.0).max_by(|a, b| a.1.total_cmp(b.1)).map(
+            |(v, &force_n)| ResidualSite {
+                vertex: v,
+                force_n,
+                height_above_level_m: hydro.as_ref().map(|hy| -hy.depth(&positions.as_slice()[v])),
+            },
+        );
+    let residual_rel_below_level = hydro.as_ref().map(|hy| {
+        if gnorm == 0.0 || res.stats.residual_rel == 0.0 {
+            return 0.0;
+        }
+        let wet: f64 =
+            unbalanced.iter().zip(positions.iter()).filter(|(_, p)| hy.depth(p) > 0.0).map(|(f, _)| f * f).sum();
+        wet.sqrt() / gnorm * res.stats.residual_rel
+    });
     let reaction = sys.reaction(&res.world_gradient);
     let support_forces = sys.contact_forces(positions.as_slice());
     let lmin = stretch.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min);
@@ -443,6 +483,8 @@ pub fn simulate(
         termination: res.termination,
         newton_iterations: res.stats.iterations,
         residual_rel: res.stats.residual_rel,
+        largest_residual,
+        residual_rel_below_level,
         max_displacement_m: disp.iter().copied().fold(0.0, f64::max),
         mean_displacement_m: disp.iter().sum::<f64>() / disp.len().max(1) as f64,
         fixed_vertices: constraints.constrained_vertices(),

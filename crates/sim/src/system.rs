@@ -790,6 +790,21 @@ impl<'a> System<'a> {
         total
     }
 
+    /// The unbalanced force at vertex `v` (N): the world gradient's component along its free
+    /// axes (zero at equilibrium; the constrained axes carry the reaction).
+    pub fn residual_force(&self, v: usize, g: &Vec3) -> Vec3 {
+        let (frame, k) = self.frames[v];
+        (k..3)
+            .map(|a| {
+                let dir = match frame {
+                    Some(r) => r.column(a).into_owned(),
+                    None => Vec3::ith(a, 1.0),
+                };
+                dir * dir.dot(g)
+            })
+            .sum()
+    }
+
     /// Contact force on each support (N): the barrier's push on the fabric.
     pub fn contact_forces(&self, x: &[Vec3]) -> Vec<Vec3> {
         let Some(b) = self.barrier else { return vec![Vec3::zeros(); self.supports.len()] };
