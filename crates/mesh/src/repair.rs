@@ -13,6 +13,7 @@
 
 use crate::Vec3;
 use crate::error::MeshError;
+use crate::ids::{FaceId, VertexId};
 use crate::mesh::Mesh;
 use crate::soup::TriSoup;
 use crate::util::UnionFind;
@@ -237,6 +238,16 @@ pub fn prepare(soup: &TriSoup, opts: &RepairOptions) -> Result<Prepared, MeshErr
     };
     let problems: Vec<Problem> = analyze(&soup2).problems;
     if !problems.is_empty() {
+        // Named in the input file's numbering (welding, removals and splits renumber).
+        let problems = problems
+            .into_iter()
+            .map(|p| {
+                p.renumbered(
+                    |v| VertexId::new(vertex_to_input[v.idx()] as usize),
+                    |f| FaceId::new(face_to_input[f.idx()] as usize),
+                )
+            })
+            .collect();
         return Err(MeshError::Invalid { problems });
     }
     let mesh = Mesh::try_from_soup(&soup2)?;

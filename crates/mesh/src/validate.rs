@@ -100,6 +100,35 @@ pub enum Problem {
 }
 
 impl Problem {
+    /// The same problem with its vertices and faces renumbered by `vertex` and `face` (e.g.
+    /// from a repaired mesh back to the input file's numbering, so that a message names the
+    /// elements the user can find).
+    pub fn renumbered(self, vertex: impl Fn(VertexId) -> VertexId, face: impl Fn(FaceId) -> FaceId) -> Problem {
+        use Problem as P;
+        match self {
+            P::Empty | P::MultipleComponents { .. } => self,
+            P::NonFiniteCoordinate { vertex: v } => P::NonFiniteCoordinate { vertex: vertex(v) },
+            P::RepeatedVertexInFace { face: f, vertices } => {
+                P::RepeatedVertexInFace { face: face(f), vertices: vertices.map(&vertex) }
+            }
+            P::ZeroAreaFace { face: f, vertices, area } => {
+                P::ZeroAreaFace { face: face(f), vertices: vertices.map(&vertex), area }
+            }
+            P::DuplicateFace { face: f, duplicate_of, vertices } => {
+                P::DuplicateFace { face: face(f), duplicate_of: face(duplicate_of), vertices: vertices.map(&vertex) }
+            }
+            P::UnreferencedVertex { vertex: v } => P::UnreferencedVertex { vertex: vertex(v) },
+            P::NonManifoldEdge { edge, faces } => {
+                P::NonManifoldEdge { edge: edge.map(&vertex), faces: faces.into_iter().map(&face).collect() }
+            }
+            P::NonManifoldVertex { vertex: v, fans } => P::NonManifoldVertex { vertex: vertex(v), fans },
+            P::InconsistentOrientation { edge, faces } => {
+                P::InconsistentOrientation { edge: edge.map(&vertex), faces: faces.map(&face) }
+            }
+            P::NonOrientable { edge, faces } => P::NonOrientable { edge: edge.map(&vertex), faces: faces.map(&face) },
+        }
+    }
+
     /// Short machine-readable kind (the JSON `kind` tag).
     pub fn kind(&self) -> &'static str {
         match self {

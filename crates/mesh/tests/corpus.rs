@@ -179,6 +179,16 @@ fn repair_fixes_what_it_can_and_refuses_the_rest() {
         assert!(prep(f, &both).is_err(), "{f}");
     }
 
+    // What remains after repair is named in the input file's numbering: suzanne's duplicate
+    // face goes and its seams are welded (renumbering faces and vertices), and the
+    // non-manifold edge left is the one the unrepaired analysis names.
+    let soup = read_mesh_file(&data("broken/suzanne.obj")).unwrap();
+    let before = analyze(&soup).problems;
+    let nm = |ps: &[Problem]| ps.iter().find(|p| p.kind() == "non_manifold_edge").cloned();
+    let Err(MeshError::Invalid { problems }) = prepare(&soup, &opts) else { panic!("suzanne was accepted") };
+    let (a, b) = (nm(&before).expect("before"), nm(&problems).expect("after"));
+    assert_eq!(a.to_string(), b.to_string());
+
     // Multi-component meshes: refused by default, the largest kept when asked.
     assert!(prep("multi/platonic_shelf.obj", &RepairOptions::default()).is_err());
     let p = prep("multi/platonic_shelf.obj", &RepairOptions { largest_component: true, ..Default::default() }).unwrap();
