@@ -121,6 +121,22 @@ fn a_solve_that_does_not_converge_says_where_its_residual_is() {
 }
 
 #[test]
+fn simulation_errors_name_the_input_files_vertices() {
+    // A tetrahedron after an unused vertex: --repair drops that vertex, so the simulated mesh
+    // numbers every vertex one lower. The vertex behind the support is (0, 0, 0): the input's
+    // vertex 1 (the repaired mesh's 0).
+    let out = tmpdir("renumbered");
+    std::fs::create_dir_all(&out).unwrap();
+    let (obj, cfg) = (out.join("t.obj"), out.join("s.toml"));
+    std::fs::write(&obj, "v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 2 4 3\nf 2 3 5\nf 2 5 4\nf 3 4 5\n").unwrap();
+    std::fs::write(&cfg, "[[supports]]\npoint = [0.0, 0.0, 0.5]\nnormal = [0.0, 0.0, 1.0]\n").unwrap();
+    let args = ["simulate", "-q", "--repair", obj.to_str().unwrap(), "-c", cfg.to_str().unwrap(), "-o"];
+    let o = run(&[&args[..], &[out.join("o").to_str().unwrap()]].concat());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("vertex 1 starts"), "{}", text(&o));
+}
+
+#[test]
 fn scenario_errors_exit_2() {
     let out = tmpdir("scen");
     // Inward-oriented closed mesh: refused, fixed by --repair.

@@ -157,6 +157,23 @@ pub enum SimError {
 }
 
 impl SimError {
+    /// The same error with its vertex renumbered by `vertex` (e.g. back to the input file's
+    /// numbering when the simulated mesh was repaired).
+    pub fn renumbered(self, vertex: impl Fn(VertexId) -> VertexId) -> SimError {
+        match self {
+            SimError::SpillingBoundary { boundary_loop, vertex: v, depth } => {
+                SimError::SpillingBoundary { boundary_loop, vertex: vertex(v), depth }
+            }
+            SimError::HeadPressureOnFreeBoundary { vertex: v } => {
+                SimError::HeadPressureOnFreeBoundary { vertex: vertex(v) }
+            }
+            SimError::BehindSupport { support, vertex: v, distance } => {
+                SimError::BehindSupport { support, vertex: vertex(v), distance }
+            }
+            other => other,
+        }
+    }
+
     /// True for problems of the input or scenario (as opposed to internal failures).
     pub fn is_input_error(&self) -> bool {
         !matches!(self, SimError::Solver(_))

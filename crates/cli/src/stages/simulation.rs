@@ -72,9 +72,11 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
 
 /// Where a solve that did not converge left its largest unbalanced force, and what that
 /// usually means, for its message ("" when there is nothing to say).
-fn residual_site(s: &clothcast_sim::SimStats) -> String {
+fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     let Some(site) = &s.largest_residual else { return String::new() };
-    let mut out = format!("; the largest unbalanced force, {:.1e} N, is at vertex {}", site.force_n, site.vertex);
+    // The input file's vertex, as in the other messages (summary.json keeps deformed.ply's).
+    let vertex = input.vertex_to_input.get(site.vertex).map_or(site.vertex, |&i| i as usize);
+    let mut out = format!("; the largest unbalanced force, {:.1e} N, is at vertex {vertex}", site.force_n);
     if let Some(h) = site.height_above_level_m {
         out += &format!(", {:.0} mm {} the fill level", h.abs() * 1e3, if h > 0.0 { "above" } else { "below" });
     }
@@ -103,7 +105,15 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
     let result = simulate(&input.mesh, material.as_ref(), &sc, &mut |it| {
         stage.set_message(format!("simulating: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
     })
-    .map_err(|e| if e.is_input_error() { Failure::Input(e.into()) } else { Failure::Internal(e.into()) })?;
+    .map_err(|e| {
+        // Named as in the input file (a repair renumbers; a refinement keeps the input's
+        // vertices first, and a vertex it added keeps its own number, past the input's).
+        let e = e.renumbered(|v| match input.vertex_to_input.get(v.idx()) {
+            Some(&i) => VertexId::new(i as usize),
+            None => v,
+        });
+        if e.is_input_error() { Failure::Input(e.into()) } else { Failure::Internal(e.into()) }
+    })?;
     drop(stage);
     let s = &result.stats;
     if !s.converged {
@@ -113,7 +123,7 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             s.newton_iterations,
             s.residual_rel,
             cfg.solver.tolerance,
-            residual_site(s)
+            residual_site(s, input)
         );
         if !cfg.solver.allow_unconverged {
             return Err(Failure::Internal(anyhow!(
