@@ -471,6 +471,8 @@ pub struct SolverSection {
     /// Sweeps of local relaxation of the vertices a rejected Newton step sent too far, before
     /// the step is shortened (0: plain backtracking).
     pub relax_sweeps: usize,
+    /// The damping matrix of the Newton steps.
+    pub damping: DampingMatrix,
 }
 
 impl Default for SolverSection {
@@ -484,8 +486,19 @@ impl Default for SolverSection {
             coarse_start_min_faces: clothcast_sim::coarse::CoarseOptions::default().min_faces,
             coarse_start_ratio: clothcast_sim::coarse::CoarseOptions::default().ratio,
             relax_sweeps: clothcast_sim::newton::NewtonOptions::default().relax_sweeps,
+            damping: DampingMatrix::Laplacian,
         }
     }
+}
+
+/// `[solver] damping`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DampingMatrix {
+    /// The rest shape's cotan Laplacian: damps a vertex's motion relative to its neighbours.
+    Laplacian,
+    /// The rest Hessian's diagonal (the former default).
+    Diagonal,
 }
 
 /// `[solver] factor_precision`.
@@ -761,6 +774,11 @@ mod tests {
         assert_eq!(Config::from_toml("[solver]\nrelax_sweeps = 0\n", "c").unwrap().solver.relax_sweeps, 0);
         let e = Config::from_toml("[solver]\nrelax_sweeps = -1\n", "c").unwrap_err().to_string();
         assert!(e.contains("relax_sweeps"), "{e}");
+        assert_eq!(Config::default().solver.damping, DampingMatrix::Laplacian);
+        let c3 = Config::from_toml("[solver]\ndamping = \"diagonal\"\n", "c").unwrap();
+        assert_eq!(c3.solver.damping, DampingMatrix::Diagonal);
+        let e = Config::from_toml("[solver]\ndamping = \"identity\"\n", "c").unwrap_err().to_string();
+        assert!(e.contains("damping"), "{e}");
         // Round trip through TOML.
         let text = toml::to_string(&c).unwrap();
         assert_eq!(Config::from_toml(&text, "rt").unwrap(), c);

@@ -1,14 +1,15 @@
 //! Static equilibrium by Newton's method on the total potential.
 //!
 //! Each iteration: assemble the gradient and the Hessian (elastic part projected to PSD, see
-//! [`crate::element`]; pressure part exact), factor `H + μD` with the sparse Cholesky whose
+//! [`crate::element`]; pressure part exact), factor `H + μM` with the sparse Cholesky whose
 //! symbolic analysis (node-level AMD or nested dissection, whichever factor is smaller) was
 //! done once, solve for the step, and backtrack along it until the energy decreases enough
 //! (Armijo). On large meshes the factor is computed in single precision and the step solved
 //! in double precision by conjugate gradients preconditioned with it ([`FactorPrecision`]).
 //! When the previous factor is a good preconditioner, conjugate gradients replace the
-//! factorization (inexact Newton). `D` is a lumped stiffness scale (reference stiffness ×
-//! vertex area / mean edge²) and μ ≥ 0 an adaptive Levenberg–Marquardt damping: raised when
+//! factorization (inexact Newton). `M` is the damping matrix ([`Damping`]: by default the
+//! rest shape's cotan Laplacian, which damps a vertex's motion relative to its neighbours, not
+//! the smooth motion of a region) and μ ≥ 0 an adaptive Levenberg–Marquardt damping: raised when
 //! the matrix is not positive definite or the full step is rejected (×4 when the line search
 //! shortened it to ½ or ¼, by 1/α when it shortened it further, to α), lowered (to exactly
 //! zero, i.e. pure Newton with quadratic convergence) when full steps succeed. The raise by
@@ -66,6 +67,8 @@ pub struct NewtonOptions {
     /// The relaxed vertices are those of the faces holding this fraction of the energy rise
     /// of the rejected trial step.
     pub relax_fraction: f64,
+    /// The damping matrix M of the damped step `(H + μM) d = −g`.
+    pub damping: Damping,
 }
 
 impl Default for NewtonOptions {
@@ -79,7 +82,101 @@ impl Default for NewtonOptions {
             split_factorization: true,
             relax_sweeps: 10,
             relax_fraction: 0.9,
+            damping: Damping::Laplacian,
         }
+    }
+}
+
+/// The damping matrix M of the Levenberg–Marquardt step `(H + μM) d = −g`.
+///
+/// Measured on 2026-12-03 (the ninth session), fine Newton iterations of the diagonal against
+/// the Laplacian: 588 → 487 over 18 solves (the example, fertility, bunny, spot, torus and
+/// camelhead at 0.3, 0.5 and 1 m; camelhead at 0.3 m 156 → 112, fewer or as many in 16 of
+/// the 18), 975 → 739 over 18 large ones (kitten and bunny_hr at 0.4, 0.5 and 0.7 m, upright
+/// and lying along +y and −x; 201.6 → 161.8 s; bunny_hr lying along +y at 0.7 m 111 → 170,
+/// kitten at 0.7 m lying along +y 157 → 68), every solve converging.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Damping {
+    /// The rest shape's cotan Laplacian ⊗ I₃ ([`System::laplacian_values`]), scaled so that
+    /// its median diagonal entry is [`LAPLACIAN_DAMPING_SCALE`] times the rest Hessian's: it
+    /// damps the motion of a vertex relative to its neighbours (the pleats of wrinkled fabric,
+    /// where single vertices overshoot) much more than the smooth motion of a region (the
+    /// mold's sag and swing), which the diagonal damped alike.
+    #[default]
+    Laplacian,
+    /// The rest Hessian's diagonal, floored at its median (dofs without stiffness at rest, the
+    /// out-of-plane motion of a flat membrane, get the in-plane scale): the former default.
+    Diagonal,
+}
+
+/// The Laplacian damping's median diagonal entry against the rest Hessian's (measured with a
+/// first version: 0.25, 1, 4 and 16 gave 467, 484, 458 and 461 iterations over the 18 smaller
+/// solves of [`Damping`]; the damping μ adapts, so the scale matters little, and camelhead's
+/// path alone moves by tens of iterations with the rounding of the matrix).
+pub const LAPLACIAN_DAMPING_SCALE: f64 = 4.0;
+
+/// The damping matrix's stored entries (lower triangle, in the Hessian's pattern).
+struct DampingMatrix {
+    slots: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl DampingMatrix {
+    fn new(sys: &System<'_>, kind: Damping, rest_hessian: &[f64]) -> Self {
+        // The rest Hessian's diagonal, floored at its median.
+        let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| rest_hessian[s].abs()).collect();
+        let median = |v: &[f64]| {
+            let mut sorted = v.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            sorted.get(sorted.len() / 2).map(|m| m.max(f64::MIN_POSITIVE))
+        };
+        let m = median(&diag).unwrap_or(1.0);
+        let diagonal =
+            || Self { slots: sys.diagonal_slots().to_vec(), values: diag.iter().map(|&d| d.max(m)).collect() };
+        match kind {
+            Damping::Diagonal => diagonal(),
+            // Positive definite on the free dofs: the mesh is connected and at least one vertex
+            // is held on every axis (a clamp, the boundary, or the 3-2-1 support of a free
+            // body), so no displacement but zero has zero Dirichlet energy.
+            Damping::Laplacian => {
+                let dense = sys.laplacian_values();
+                let ld: Vec<f64> = sys.diagonal_slots().iter().map(|&s| dense[s]).filter(|v| *v > 0.0).collect();
+                let Some(lm) = median(&ld) else { return diagonal() };
+                let k = LAPLACIAN_DAMPING_SCALE * m / lm;
+                let (slots, values) =
+                    dense.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(s, &v)| (s, k * v)).unzip();
+                Self { slots, values }
+            }
+        }
+    }
+
+    /// vals += μ M.
+    fn add(&self, vals: &mut [f64], mu: f64) {
+        for (&s, &v) in self.slots.iter().zip(&self.values) {
+            vals[s] += mu * v;
+        }
+    }
+
+    /// The undamped values at M's slots.
+    fn save(&self, vals: &[f64]) -> Vec<f64> {
+        self.slots.iter().map(|&s| vals[s]).collect()
+    }
+
+    /// Put back the values `save` returned.
+    fn restore(&self, vals: &mut [f64], base: &[f64]) {
+        for (&s, &b) in self.slots.iter().zip(base) {
+            vals[s] = b;
+        }
+    }
+
+    /// dᵀ M d.
+    fn quadratic(&self, pattern: &SymmetricPattern, d: &[f64]) -> f64 {
+        let mut dense = vec![0.0; pattern.nnz()];
+        self.add(&mut dense, 1.0);
+        let mut y = vec![0.0; d.len()];
+        pattern.mul_vec(&dense, d, &mut y);
+        y.iter().zip(d).map(|(a, b)| a * b).sum()
     }
 }
 
@@ -291,21 +388,16 @@ pub fn solve(
     tracing::debug!(len = chol.factor_len(), "factor size");
     stats.symbolic_seconds = t.elapsed().as_secs_f64();
 
-    // Damping scale D: the Hessian's diagonal at the start, floored at its median so that
-    // dofs without stiffness at rest (out-of-plane motion of a flat membrane) get the
-    // in-plane scale.
+    // The damping matrix, scaled by the Hessian at the start.
     // (That evaluation, at full load where the solve starts, is also its first iteration's.)
     let ta = Instant::now();
     let mut first_evaluation = Some(sys.evaluate(&x, 1.0, true));
     stats.assembly_seconds += ta.elapsed().as_secs_f64();
-    let d_scale: Vec<f64> = {
-        let h = first_evaluation.as_ref().and_then(|ev| ev.hessian.as_ref()).expect("requested");
-        let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| h[s].abs()).collect();
-        let mut sorted = diag.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2].max(f64::MIN_POSITIVE);
-        diag.iter().map(|&d| d.max(median)).collect()
-    };
+    let damping = DampingMatrix::new(
+        sys,
+        opts.damping,
+        first_evaluation.as_ref().and_then(|ev| ev.hessian.as_ref()).expect("requested"),
+    );
 
     let mut mu = opts.initial_damping;
     let (mut s, mut s_ok, mut ds) = (1.0f64, 0.0f64, 1.0f64);
@@ -360,12 +452,8 @@ pub fn solve(
         stats.iterations += 1;
         let mut vals = ev.hessian.expect("requested");
         // The undamped diagonal (damping changes only the diagonal), to re-damp from.
-        let base: Vec<f64> = sys.diagonal_slots().iter().map(|&slot| vals[slot]).collect();
-        let add_damping = |vals: &mut [f64], mu: f64| {
-            for (i, &slot) in sys.diagonal_slots().iter().enumerate() {
-                vals[slot] += mu * d_scale[i];
-            }
-        };
+        let base = damping.save(&vals);
+        let add_damping = |vals: &mut [f64], mu: f64| damping.add(vals, mu);
         if mu > 0.0 {
             add_damping(&mut vals, mu);
         }
@@ -408,7 +496,7 @@ pub fn solve(
             // Set by that confirmation: the next damping raise returns to single precision
             // (once; a later fallback for range or a poor factor keeps double for the step).
             let mut back_to_single = false;
-            // Factor H + μD, raising μ until positive definite (reusing the factor's buffers).
+            // Factor H + μM, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
                 let ok = loop {
                     let tf = Instant::now();
@@ -438,9 +526,7 @@ pub fn solve(
                             if mu > 1e12 {
                                 break false;
                             }
-                            for (&slot, &b) in sys.diagonal_slots().iter().zip(&base) {
-                                vals[slot] = b;
-                            }
+                            damping.restore(&mut vals, &base);
                             add_damping(&mut vals, mu);
                             if std::mem::take(&mut back_to_single) {
                                 single = use_single;
@@ -589,10 +675,10 @@ pub fn solve(
         history.push(report);
         progress(&report);
         // For the log: the decrease achieved against the quadratic model's at the accepted
-        // step length α (with (H + μD)d = −g, dᵀHd = −gᵀd − μdᵀDd, so the model's change is
-        // αgᵀd − ½α²(gᵀd + μdᵀDd)): how well the model held along the step.
+        // step length α (with (H + μM)d = −g, dᵀHd = −gᵀd − μdᵀMd, so the model's change is
+        // αgᵀd − ½α²(gᵀd + μdᵀMd)): how well the model held along the step.
         let model_ratio = if accepted > 0.0 && tracing::enabled!(tracing::Level::DEBUG) {
-            let dd: f64 = step.iter().zip(&d_scale).map(|(d, s)| s * d * d).sum();
+            let dd = damping.quadratic(sys.pattern(), &step);
             (accepted_energy - ev.energy) / (accepted * slope - 0.5 * accepted * accepted * (slope + mu * dd))
         } else {
             f64::NAN
@@ -616,7 +702,7 @@ pub fn solve(
             } else {
                 // Raised at least in proportion to how far the step had to be shortened: the
                 // damping is what bounds the next step along the soft directions (there the
-                // damped step is about −g/(μD)), so a step cut to α asks for a damping 1/α
+                // damped step is about −(μM)⁻¹g), so a step cut to α asks for a damping 1/α
                 // times larger (×4 at least, as for α = ½ or ¼).
                 (mu * (1.0 / accepted).max(4.0)).max(1e-8)
             };

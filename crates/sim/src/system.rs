@@ -411,6 +411,44 @@ impl<'a> System<'a> {
         self.barrier
     }
 
+    /// The rest shape's cotan Laplacian ⊗ I₃ on the free dofs, as values in the Hessian's
+    /// pattern (a constrained axis acts as a Dirichlet boundary: its neighbours keep their
+    /// diagonal term): the Hessian of ½ Σ_edges w_e ‖u_a − u_b‖² over displacements u, with
+    /// w_e the edge's cotan weight (positive semi-definite for any weights, the Dirichlet
+    /// energy of the displacement). [`crate::newton`]'s damping matrix.
+    pub fn laplacian_values(&self) -> Vec<f64> {
+        let w = self.mesh.cotan_weights();
+        let mut vals = vec![0.0; self.pattern.nnz()];
+        for e in self.mesh.edges() {
+            let [a, b] = self.mesh.edge_vertices(e).map(|v| v.idx());
+            let we = w[e];
+            for (v, u) in [(a, b), (b, a)] {
+                for k in 0..3 {
+                    let i = self.dof[v][k];
+                    if i == u32::MAX {
+                        continue;
+                    }
+                    vals[self.diag_slots[i as usize]] += we;
+                    // The coupling to the other end, once per pair (from the lower end).
+                    if v > u {
+                        continue;
+                    }
+                    for l in 0..3 {
+                        let j = self.dof[u][l];
+                        if j == u32::MAX {
+                            continue;
+                        }
+                        let c = self.dof_direction(v, k).dot(&self.dof_direction(u, l));
+                        if c != 0.0 {
+                            vals[self.pattern.slot(i as usize, j as usize)] -= we * c;
+                        }
+                    }
+                }
+            }
+        }
+        vals
+    }
+
     /// Free dof → (vertex, world direction).
     pub fn dof_direction(&self, v: usize, k: usize) -> Vec3 {
         match self.frames[v].0 {

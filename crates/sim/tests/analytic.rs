@@ -396,6 +396,65 @@ fn single_precision_factor_follows_the_double_precision_path() {
     assert!(dmax < 1e-6 * disp, "equilibria differ by {dmax} m (displacement {disp} m)");
 }
 
+/// The two damping matrices take different paths to the same equilibrium (hanging and filled,
+/// the built-in example), and the Laplacian is the Dirichlet energy's Hessian: symmetric
+/// positive semi-definite, zero on a translation of free vertices away from the clamps.
+#[test]
+fn laplacian_and_diagonal_damping_reach_the_same_equilibrium() {
+    use clothcast_sim::newton::Damping;
+    let mesh = shapes::rounded_tetrahedron(0.5);
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let run = |damping: Damping| {
+        let sc = Scenario { newton: NewtonOptions { damping, ..Default::default() }, ..Default::default() };
+        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{damping:?}: {:?}", r.stats.termination);
+        common::assert_energy_never_rises(&r.history);
+        r
+    };
+    let (l, d) = (run(Damping::Laplacian), run(Damping::Diagonal));
+    assert_ne!(
+        l.history.iter().map(|h| h.energy).collect::<Vec<_>>(),
+        d.history.iter().map(|h| h.energy).collect::<Vec<_>>(),
+        "the same path"
+    );
+    let dmax = l.positions.iter().zip(&d.positions).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    let disp = d.stats.max_displacement_m;
+    assert!(dmax < 1e-6 * disp, "equilibria differ by {dmax} m (displacement {disp} m)");
+
+    // The matrix itself, with the top band clamped.
+    let sc = Scenario::default();
+    let up = sc.up.normalize();
+    let c = clothcast_sim::scenario::suspension_constraints(&mesh, &sc.suspension, &up).unwrap();
+    let sys = System::new(&mesh, &mat, Loads::default(), &c, vec![], None);
+    let vals = sys.laplacian_values();
+    let n = sys.n_dofs();
+    let mut y = vec![0.0; n];
+    // xᵀLx ≥ 0 for a few deterministic pseudo-random x.
+    for seed in 1..6u64 {
+        let x: Vec<f64> =
+            (0..n as u64).map(|i| ((i * 2654435761 + seed * 40503) % 1000) as f64 / 500.0 - 1.0).collect();
+        sys.pattern().mul_vec(&vals, &x, &mut y);
+        let q: f64 = x.iter().zip(&y).map(|(a, b)| a * b).sum();
+        assert!(q >= -1e-12 * x.iter().map(|a| a * a).sum::<f64>(), "xᵀLx = {q}");
+    }
+    // A translation of the free vertices along x: its Dirichlet energy is that of the edges
+    // from a free vertex to a clamped one (the clamped end stays), Σ w_e.
+    let fixed: Vec<bool> = mesh.vertices().map(|v| c.n_fixed(v) == 3).collect();
+    let tx = sys.to_dofs(&vec![Vec3::new(1.0, 0.0, 0.0); mesh.n_vertices()]);
+    sys.pattern().mul_vec(&vals, &tx, &mut y);
+    let q: f64 = tx.iter().zip(&y).map(|(a, b)| a * b).sum();
+    let w = mesh.cotan_weights();
+    let expect: f64 = mesh
+        .edges()
+        .filter(|&e| {
+            let [a, b] = mesh.edge_vertices(e);
+            fixed[a.idx()] != fixed[b.idx()]
+        })
+        .map(|e| w[e])
+        .sum();
+    assert!(expect > 0.0 && (q - expect).abs() <= 1e-9 * expect, "{q} vs {expect}");
+}
+
 /// A matrix not positive definite at the step's damping (the hanging, filled cylinder, a
 /// step where the pressure's stiffness outweighs the membrane's): the single-precision
 /// factorization fails, the double-precision one of the same matrix confirms it, and the

@@ -61,6 +61,10 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
                 config::FactorPrecision::Single => FactorPrecision::Single,
             },
             relax_sweeps: cfg.solver.relax_sweeps,
+            damping: match cfg.solver.damping {
+                config::DampingMatrix::Laplacian => clothcast_sim::newton::Damping::Laplacian,
+                config::DampingMatrix::Diagonal => clothcast_sim::newton::Damping::Diagonal,
+            },
             ..Default::default()
         },
         coarse: cfg.solver.coarse_start.then_some(clothcast_sim::coarse::CoarseOptions {
