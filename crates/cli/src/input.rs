@@ -7,7 +7,7 @@ use crate::stages::segmentation::roll_too_narrow;
 use anyhow::anyhow;
 use clothcast_mesh::io::read_mesh_file;
 use clothcast_mesh::repair::{RepairOptions, RepairReport, prepare};
-use clothcast_mesh::{Mesh, Vec3, shapes, subdivide};
+use clothcast_mesh::{Mesh, Vec3, VertexId, shapes, subdivide};
 use serde::Serialize;
 
 /// A refined mesh's longest edge is at most the roll's usable width over this: a patch as
@@ -45,6 +45,14 @@ pub struct Input {
     pub unrefined_faces: usize,
     /// Edges split by the refinement (`mesh.refine`).
     pub refinement_splits: usize,
+}
+
+impl Input {
+    /// The input file's number of mesh vertex `v` (a repair renumbers; a vertex the refinement
+    /// added, past the input's, has none and keeps its own).
+    pub fn input_vertex(&self, v: VertexId) -> VertexId {
+        self.vertex_to_input.get(v.idx()).map_or(v, |&i| VertexId::new(i as usize))
+    }
 }
 
 /// The `input` section of summary.json.

@@ -124,7 +124,8 @@ struct DampingMatrix {
 
 impl DampingMatrix {
     fn new(sys: &System<'_>, kind: Damping, rest_hessian: &[f64]) -> Self {
-        // The rest Hessian's diagonal, floored at its median.
+        // The rest Hessian's diagonal and its median (the floor of the diagonal damping, the
+        // scale of the Laplacian).
         let diag: Vec<f64> = sys.diagonal_slots().iter().map(|&s| rest_hessian[s].abs()).collect();
         let median = |v: &[f64]| {
             let mut sorted = v.to_vec();
@@ -451,11 +452,10 @@ pub fn solve(
         }
         stats.iterations += 1;
         let mut vals = ev.hessian.expect("requested");
-        // The undamped diagonal (damping changes only the diagonal), to re-damp from.
+        // The undamped values where the damping matrix adds, to re-damp from.
         let base = damping.save(&vals);
-        let add_damping = |vals: &mut [f64], mu: f64| damping.add(vals, mu);
         if mu > 0.0 {
-            add_damping(&mut vals, mu);
+            damping.add(&mut vals, mu);
         }
         let rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
         let mut step = vec![0.0; rhs.len()];
@@ -527,7 +527,7 @@ pub fn solve(
                                 break false;
                             }
                             damping.restore(&mut vals, &base);
-                            add_damping(&mut vals, mu);
+                            damping.add(&mut vals, mu);
                             if std::mem::take(&mut back_to_single) {
                                 single = use_single;
                             }

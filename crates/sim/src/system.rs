@@ -816,12 +816,8 @@ impl<'a> System<'a> {
     pub fn reaction(&self, world_gradient: &[Vec3]) -> Vec3 {
         let mut total = Vec3::zeros();
         for (v, g) in world_gradient.iter().enumerate() {
-            let (frame, k) = self.frames[v];
-            for a in 0..k {
-                let dir = match frame {
-                    Some(r) => r.column(a).into_owned(),
-                    None => Vec3::ith(a, 1.0),
-                };
+            for a in 0..self.frames[v].1 {
+                let dir = self.dof_direction(v, a);
                 total += dir * dir.dot(g);
             }
         }
@@ -831,13 +827,9 @@ impl<'a> System<'a> {
     /// The unbalanced force at vertex `v` (N): the world gradient's component along its free
     /// axes (zero at equilibrium; the constrained axes carry the reaction).
     pub fn residual_force(&self, v: usize, g: &Vec3) -> Vec3 {
-        let (frame, k) = self.frames[v];
-        (k..3)
+        (self.frames[v].1..3)
             .map(|a| {
-                let dir = match frame {
-                    Some(r) => r.column(a).into_owned(),
-                    None => Vec3::ith(a, 1.0),
-                };
+                let dir = self.dof_direction(v, a);
                 dir * dir.dot(g)
             })
             .sum()

@@ -79,7 +79,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
 fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     let Some(site) = &s.largest_residual else { return String::new() };
     // The input file's vertex, as in the other messages (summary.json keeps deformed.ply's).
-    let vertex = input.vertex_to_input.get(site.vertex).map_or(site.vertex, |&i| i as usize);
+    let vertex = input.input_vertex(VertexId::new(site.vertex)).idx();
     let mut out = format!("; the largest unbalanced force, {:.1e} N, is at vertex {vertex}", site.force_n);
     if let Some(h) = site.height_above_level_m {
         out += &format!(", {:.0} mm {} the fill level", h.abs() * 1e3, if h > 0.0 { "above" } else { "below" });
@@ -110,12 +110,8 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
         stage.set_message(format!("simulating: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
     })
     .map_err(|e| {
-        // Named as in the input file (a repair renumbers; a refinement keeps the input's
-        // vertices first, and a vertex it added keeps its own number, past the input's).
-        let e = e.renumbered(|v| match input.vertex_to_input.get(v.idx()) {
-            Some(&i) => VertexId::new(i as usize),
-            None => v,
-        });
+        // Named as in the input file.
+        let e = e.renumbered(|v| input.input_vertex(v));
         if e.is_input_error() { Failure::Input(e.into()) } else { Failure::Internal(e.into()) }
     })?;
     drop(stage);
