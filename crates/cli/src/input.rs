@@ -39,6 +39,9 @@ pub struct Input {
     /// For each of the mesh's first `vertex_to_input.len()` vertices, the input file's vertex
     /// (the vertices refinement added, after those, have none).
     pub vertex_to_input: Vec<u32>,
+    /// Vertices of the input file (before repairs): the vertices refinement added are numbered
+    /// after these in messages, so that none is mistaken for an input vertex.
+    pub input_vertices: usize,
     /// For each mesh face, the input file's triangle containing it.
     pub face_to_input: Vec<u32>,
     /// Faces before refinement (after repairs).
@@ -48,10 +51,14 @@ pub struct Input {
 }
 
 impl Input {
-    /// The input file's number of mesh vertex `v` (a repair renumbers; a vertex the refinement
-    /// added, past the input's, has none and keeps its own).
+    /// The input file's number of mesh vertex `v` (a repair renumbers). A vertex the refinement
+    /// added has none: it is numbered after the input file's vertices, in the order added
+    /// (its own number when no repair removed a vertex).
     pub fn input_vertex(&self, v: VertexId) -> VertexId {
-        self.vertex_to_input.get(v.idx()).map_or(v, |&i| VertexId::new(i as usize))
+        match self.vertex_to_input.get(v.idx()) {
+            Some(&i) => VertexId::new(i as usize),
+            None => VertexId::new(self.input_vertices + (v.idx() - self.vertex_to_input.len())),
+        }
     }
 }
 
@@ -115,7 +122,7 @@ impl Input {
 /// Load the scenario's mesh (or the built-in example) and scale it to metres.
 pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
     let up = Vec3::from(cfg.mesh.up.unit());
-    let (label, prepared) = match &cfg.mesh.path {
+    let (label, prepared, input_vertices) = match &cfg.mesh.path {
         None => {
             let mesh = shapes::rounded_tetrahedron(EXAMPLE_HEIGHT);
             let n = (mesh.n_vertices() as u32, mesh.n_faces() as u32);
@@ -125,12 +132,12 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
                 vertex_to_input: (0..n.0).collect(),
                 face_to_input: (0..n.1).collect(),
             };
-            ("built-in example".to_string(), prepared)
+            ("built-in example".to_string(), prepared, n.0 as usize)
         }
         Some(path) => {
             let soup = read_mesh_file(path).input()?;
             let prepared = prepare(&soup, repair).map_err(|e| Failure::Input(anyhow!("{}: {e}", path.display())))?;
-            (path.display().to_string(), prepared)
+            (path.display().to_string(), prepared, soup.positions.len())
         }
     };
     let mut mesh = prepared.mesh;
@@ -200,6 +207,7 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         up,
         repairs: prepared.report,
         vertex_to_input: prepared.vertex_to_input,
+        input_vertices,
         face_to_input,
         unrefined_faces,
         refinement_splits,
@@ -246,5 +254,26 @@ mod tests {
         // A larger minimum is honoured.
         let more = cube(|c| c.mesh.min_faces = 20_000);
         assert!(more.mesh.n_faces() >= 20_000);
+    }
+
+    /// The cube with an unused 27th vertex, repaired (the vertex dropped) and refined: the
+    /// vertices refinement added are named after the input file's 27, never as the dropped one.
+    #[test]
+    fn refined_vertices_are_numbered_after_the_input_files() {
+        let dir = std::env::temp_dir().join(format!("clothcast-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cube_unused.obj");
+        let cube = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/cube.obj"));
+        std::fs::write(&path, cube.unwrap() + "v 9 9 9\n").unwrap();
+        let mut cfg = Config::default();
+        cfg.mesh.path = Some(path);
+        let r = load(&cfg, &RepairOptions { repair: true, ..Default::default() }).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!((r.input_vertices, r.vertex_to_input.len()), (27, 26));
+        assert!(r.mesh.n_vertices() > 26, "refined");
+        assert_eq!(r.input_vertex(VertexId::new(25)), VertexId::new(25));
+        assert_eq!(r.input_vertex(VertexId::new(26)), VertexId::new(27));
+        let last = r.mesh.n_vertices() - 1;
+        assert_eq!(r.input_vertex(VertexId::new(last)), VertexId::new(last + 1));
     }
 }

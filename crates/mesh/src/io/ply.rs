@@ -189,6 +189,22 @@ pub fn write_ply(
 
 // ---- reading ------------------------------------------------------------------------------
 
+/// A scalar property's value as f64 (`None` for lists).
+fn scalar(property: ply_rs_bw::ply::Property) -> Option<f64> {
+    use ply_rs_bw::ply::Property as P;
+    Some(match property {
+        P::Char(x) => x as f64,
+        P::UChar(x) => x as f64,
+        P::Short(x) => x as f64,
+        P::UShort(x) => x as f64,
+        P::Int(x) => x as f64,
+        P::UInt(x) => x as f64,
+        P::Float(x) => x as f64,
+        P::Double(x) => x,
+        _ => return None,
+    })
+}
+
 #[derive(Default)]
 struct PlyVertex([f64; 3]);
 
@@ -197,17 +213,8 @@ impl PropertyAccess for PlyVertex {
         Self::default()
     }
     fn set_property(&mut self, name: &str, property: ply_rs_bw::ply::Property) -> PropertyAccessResult {
-        use ply_rs_bw::ply::Property as P;
-        let v = match property {
-            P::Char(x) => x as f64,
-            P::UChar(x) => x as f64,
-            P::Short(x) => x as f64,
-            P::UShort(x) => x as f64,
-            P::Int(x) => x as f64,
-            P::UInt(x) => x as f64,
-            P::Float(x) => x as f64,
-            P::Double(x) => x,
-            _ => return PropertyAccessResult::Ignored,
+        let Some(v) = scalar(property) else {
+            return PropertyAccessResult::Ignored;
         };
         self.set(name, v)
     }
@@ -275,17 +282,8 @@ impl PropertyAccess for AnyElement {
         Self::default()
     }
     fn set_property(&mut self, name: &str, property: ply_rs_bw::ply::Property) -> PropertyAccessResult {
-        use ply_rs_bw::ply::Property as P;
-        let v = match property {
-            P::Char(x) => x as f64,
-            P::UChar(x) => x as f64,
-            P::Short(x) => x as f64,
-            P::UShort(x) => x as f64,
-            P::Int(x) => x as f64,
-            P::UInt(x) => x as f64,
-            P::Float(x) => x as f64,
-            P::Double(x) => x,
-            _ => return PropertyAccessResult::Ignored,
+        let Some(v) = scalar(property) else {
+            return PropertyAccessResult::Ignored;
         };
         self.0.push((name.to_string(), v));
         PropertyAccessResult::Set
