@@ -383,16 +383,7 @@ impl IntrinsicTriangulation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clothcast_mesh::{Vec3, shapes};
-
-    /// The unit square split along 0–2.
-    fn square() -> Mesh {
-        Mesh::try_new(
-            vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)],
-            vec![[0, 1, 2], [0, 2, 3]],
-        )
-        .unwrap()
-    }
+    use clothcast_mesh::shapes;
 
     #[test]
     fn angles_are_accurate() {
@@ -408,7 +399,7 @@ mod tests {
 
     #[test]
     fn square_flip() {
-        let m = square();
+        let m = shapes::unit_square();
         let mut tri = IntrinsicTriangulation::from_mesh(&m);
         tri.check(1e-12).unwrap();
         assert_eq!(tri.n_halfedges(), 6 + 4);

@@ -468,12 +468,6 @@ fn delaunay_flips(
 mod tests {
     use super::*;
 
-    /// The unit square as two triangles (0,1,2), (0,2,3).
-    fn square() -> Mesh {
-        let p = vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)];
-        Mesh::try_new(p, vec![[0, 1, 2], [0, 2, 3]]).unwrap()
-    }
-
     /// The point at fraction `s` from `a` to `b` on their edge.
     fn on(m: &Mesh, a: u32, b: u32, s: f64) -> SurfacePoint {
         let edge = edge_between(m, VertexId(a), VertexId(b)).unwrap();
@@ -487,7 +481,7 @@ mod tests {
 
     #[test]
     fn chord_across_square() {
-        let m = square();
+        let m = clothcast_mesh::shapes::unit_square();
         let line = vec![on(&m, 0, 1, 0.5), on(&m, 0, 2, 0.5), on(&m, 2, 3, 0.5)];
         let r = insert_polylines(&m, &[line], &RemeshOptions::default()).unwrap();
         assert_eq!(r.mesh.n_vertices(), 7);
@@ -516,7 +510,7 @@ mod tests {
 
     #[test]
     fn snapping_and_merging() {
-        let m = square();
+        let m = clothcast_mesh::shapes::unit_square();
         // Near vertex 1 on edge 0-1: snapped; the chord from vertex 1 to the diagonal point stays.
         let line = vec![on(&m, 0, 1, 0.95), on(&m, 0, 2, 0.5), on(&m, 2, 3, 0.5)];
         let r = insert_polylines(&m, std::slice::from_ref(&line), &RemeshOptions::default()).unwrap();
@@ -544,7 +538,7 @@ mod tests {
 
     #[test]
     fn paths_along_edges() {
-        let m = square();
+        let m = clothcast_mesh::shapes::unit_square();
         // One seam along the boundary 0-1-2, another ending on edge 1-2 (a touch at an edge point),
         // a third along edge 1-2: the first passes through all three inserted points.
         let a = vec![
@@ -569,7 +563,7 @@ mod tests {
 
     #[test]
     fn crossing_and_invalid_polylines_are_refused() {
-        let m = square();
+        let m = clothcast_mesh::shapes::unit_square();
         let opts = RemeshOptions::default();
         let a = vec![on(&m, 0, 1, 0.5), on(&m, 0, 2, 0.5)];
         let b = vec![on(&m, 0, 1, 0.3), SurfacePoint::Vertex(VertexId(2))];

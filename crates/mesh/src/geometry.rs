@@ -279,17 +279,9 @@ pub fn shortest_edge_path(
 mod tests {
     use super::*;
 
-    fn right_triangle_pair() -> Mesh {
-        Mesh::try_new(
-            vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)],
-            vec![[0, 1, 2], [0, 2, 3]],
-        )
-        .unwrap()
-    }
-
     #[test]
     fn square_geometry() {
-        let m = right_triangle_pair();
+        let m = crate::shapes::unit_square();
         assert!((m.total_area() - 1.0).abs() < 1e-15);
         assert!((m.face_normal(FaceId(0)) - Vec3::z()).norm() < 1e-15);
         let w = m.cotan_weights();
@@ -310,7 +302,7 @@ mod tests {
 
     #[test]
     fn frames_are_orthonormal() {
-        let m = right_triangle_pair();
+        let m = crate::shapes::unit_square();
         for fr in m.face_frames().iter() {
             assert!((fr.b1.norm() - 1.0).abs() < 1e-15);
             assert!(fr.b1.dot(&fr.b2).abs() < 1e-15);

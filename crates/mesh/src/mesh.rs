@@ -395,18 +395,9 @@ impl Iterator for Outgoing<'_> {
 mod tests {
     use super::*;
 
-    /// A square split in two triangles.
-    fn square() -> Mesh {
-        Mesh::try_new(
-            vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)],
-            vec![[0, 1, 2], [0, 2, 3]],
-        )
-        .unwrap()
-    }
-
     #[test]
     fn square_connectivity() {
-        let m = square();
+        let m = crate::shapes::unit_square();
         assert_eq!((m.n_vertices(), m.n_edges(), m.n_faces()), (4, 5, 2));
         assert_eq!(m.euler_characteristic(), 1);
         assert_eq!(m.boundary_loops().len(), 1);

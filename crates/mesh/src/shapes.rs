@@ -169,6 +169,13 @@ pub fn torus(big_r: f64, small_r: f64, n_major: usize, n_minor: usize) -> Mesh {
     Mesh::try_new(p, t).expect("torus is valid")
 }
 
+/// The unit square [0, 1]² in the z = 0 plane as two triangles, (0, 1, 2) and (0, 2, 3), its
+/// vertices counter-clockwise from the origin (normal +z; the diagonal joins 0 and 2).
+pub fn unit_square() -> Mesh {
+    let p = vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)];
+    Mesh::try_new(p, vec![[0, 1, 2], [0, 2, 3]]).expect("the square is valid")
+}
+
 /// Flat `nx × ny` grid of squares (each split in two) over [0, sx] × [0, sy] in the z = 0
 /// plane, normal +z.
 pub fn grid(nx: usize, ny: usize, sx: f64, sy: f64) -> Mesh {
