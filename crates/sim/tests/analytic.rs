@@ -367,20 +367,24 @@ fn documented_errors() {
     assert!(matches!(simulate(&m, &mat, &sc, &mut |_| {}), Err(SimError::NoSuchVertex { .. })));
 }
 
+/// The default scenario on `mesh` (the default fabric), its step solves in precision `p`;
+/// asserts that it converges.
+fn solve_with_precision(mesh: &Mesh, p: clothcast_sim::newton::FactorPrecision) -> SimResult {
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let sc = Scenario { newton: NewtonOptions { factor_precision: p, ..Default::default() }, ..Default::default() };
+    let r = simulate(mesh, &mat, &sc, &mut |_| {}).unwrap();
+    assert!(r.stats.converged, "{p:?}: {:?}", r.stats.termination);
+    r
+}
+
 /// A single-precision factor (preconditioning a double-precision step solve) gives the Newton
 /// iterates of the double-precision direct solve: same iteration count, same energies and
-/// equilibrium up to round-off. Hanging, filled and wrinkling, on the built-in example.
+/// equilibrium up to round-off. Hanging, filled and wrinkling, on a 0.25 m icosphere.
 #[test]
 fn single_precision_factor_follows_the_double_precision_path() {
     use clothcast_sim::newton::FactorPrecision;
     let mesh = shapes::icosphere(4, 0.25);
-    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let run = |p: FactorPrecision| {
-        let sc = Scenario { newton: NewtonOptions { factor_precision: p, ..Default::default() }, ..Default::default() };
-        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
-        assert!(r.stats.converged, "{p:?}: {:?}", r.stats.termination);
-        r
-    };
+    let run = |p| solve_with_precision(&mesh, p);
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     assert!(!d.stats.solver.single_precision && s.stats.solver.single_precision);
     assert!(s.stats.solver.pcg_iterations >= s.stats.solver.factorizations, "every step is iterated");
@@ -467,13 +471,7 @@ fn indefinite_steps_return_to_single_precision() {
     let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
     let scale = 0.5 / mesh.bbox().extent().z;
     mesh.set_positions(mesh.positions().map(|x| x * scale));
-    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let run = |p: FactorPrecision| {
-        let sc = Scenario { newton: NewtonOptions { factor_precision: p, ..Default::default() }, ..Default::default() };
-        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
-        assert!(r.stats.converged, "{p:?}: {:?}", r.stats.termination);
-        r
-    };
+    let run = |p| solve_with_precision(&mesh, p);
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     let st = &s.stats.solver;
     assert!(st.single_fallbacks_indefinite > 0, "{st:?}");
