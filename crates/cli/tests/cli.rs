@@ -8,16 +8,17 @@ use serde_json::Value;
 #[test]
 fn run_builtin_example_writes_summary() {
     let out = tmpdir("run");
-    let o = run(&["run", "-q", "-o", out.to_str().unwrap()]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    expect_exit(&run_stage("run", &out, None, &[]), 0);
+    let s = summary(&out);
     assert_eq!(s["version"], env!("CARGO_PKG_VERSION"));
     assert_eq!(s["input"]["path"], "built-in example");
     assert_eq!(s["input"]["euler_characteristic"], 2);
     assert_eq!(s["input"]["genus"], 0);
-    for k in ["vertices", "faces", "components", "boundary_loops", "area_m2", "bbox_diagonal_m", "repairs"] {
-        assert!(!s["input"][k].is_null(), "input.{k} missing");
-    }
+    assert_keys(
+        &s["input"],
+        "input",
+        &["vertices", "faces", "components", "boundary_loops", "area_m2", "bbox_diagonal_m", "repairs"],
+    );
     assert_eq!(s["scenario"]["infill"]["density"], 1460.0);
     assert!(s["stages"]["input"]["seconds"].as_f64().unwrap() >= 0.0);
     assert!(s["seconds_total"].as_f64().unwrap() >= 0.0);
@@ -26,7 +27,7 @@ fn run_builtin_example_writes_summary() {
 #[test]
 fn check_reports_topology_as_json() {
     let o = run(&["check", "--json", data("closed/fertility.off").to_str().unwrap()]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
+    expect_exit(&o, 0);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     for k in [
         "vertices",
@@ -83,7 +84,7 @@ fn check_broken_files_exit_2_naming_the_element() {
         assert!(!text(&o).contains("panicked"), "{file}");
     }
     let o = run(&["check", "--json", data("broken/fan3.obj").to_str().unwrap()]);
-    assert_eq!(code(&o), 2);
+    expect_exit(&o, 2);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["usable"], false);
     assert_eq!(v["problems"][0]["kind"], "non_manifold_edge");
@@ -100,69 +101,55 @@ fn check_with_repair_and_largest_component() {
         "--json",
         data("broken/hourglass_ico.obj").to_str().unwrap(),
     ]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
+    expect_exit(&o, 0);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["repairs"]["non_manifold_vertices_split"], 1);
     assert_eq!(v["after_repair"]["components"], 1);
-    let o = run(&["check", "--repair", data("broken/moebius.obj").to_str().unwrap()]);
-    assert_eq!(code(&o), 2, "{}", text(&o));
+    expect_exit(&run(&["check", "--repair", data("broken/moebius.obj").to_str().unwrap()]), 2);
 }
 
 #[test]
 fn run_refuses_bad_input_without_touching_outputs() {
     let out = tmpdir("bad");
-    let summary = out.join("summary.json");
-    std::fs::write(&summary, b"{\"previous\": true}").unwrap();
+    let summary_file = out.join("summary.json");
+    std::fs::write(&summary_file, b"{\"previous\": true}").unwrap();
     for (file, needle) in [
         ("broken/fan3.obj", "non-manifold edge"),
         ("handmade/nan_coordinate.obj", "non-finite"),
         ("handmade/does_not_exist.obj", "cannot read"),
     ] {
-        let o = run(&["run", "-q", data(file).to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        let o = run_stage("run", &out, None, &[data(file).to_str().unwrap()]);
         assert_eq!(code(&o), 2, "{file}: {}", text(&o));
         assert!(text(&o).contains(needle), "{file}: {}", text(&o));
     }
-    assert_eq!(std::fs::read(&summary).unwrap(), b"{\"previous\": true}");
+    assert_eq!(std::fs::read(&summary_file).unwrap(), b"{\"previous\": true}");
     // With --repair the NaN mesh becomes usable: an open surface remains, held at its rim.
-    let cfg = out.join("rim.toml");
-    std::fs::write(&cfg, "[suspension]\nmode = \"boundary\"\n").unwrap();
-    let o = run(&[
-        "run",
-        "-q",
-        "--repair",
-        data("handmade/nan_coordinate.obj").to_str().unwrap(),
-        "-c",
-        cfg.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
+    let cfg = write_config(&out, "rim.toml", "[suspension]\nmode = \"boundary\"\n");
+    let nan = data("handmade/nan_coordinate.obj");
+    expect_exit(&run_stage("run", &out, Some(&cfg), &["--repair", nan.to_str().unwrap()]), 0);
+    let s = summary(&out);
     assert_eq!(s["input"]["repairs"]["faces_with_non_finite_vertices_removed"], 3);
 }
 
 #[test]
 fn config_errors_name_key_and_line() {
     let dir = tmpdir("cfg");
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, "[material]\nyoungs_modulus = 1e5\npoison_ratio = 0.3\n").unwrap();
-    let o = run(&["run", "-q", bad.to_str().unwrap(), "-o", dir.to_str().unwrap()]);
-    assert_eq!(code(&o), 2);
-    assert!(text(&o).contains("poison_ratio") && text(&o).contains("line 3"), "{}", text(&o));
-    std::fs::write(&bad, "[infill]\ndensity = -3\n").unwrap();
-    let o = run(&["run", "-q", "-c", bad.to_str().unwrap(), "-o", dir.to_str().unwrap()]);
-    assert_eq!(code(&o), 2);
-    assert!(text(&o).contains("bad.toml:2") && text(&o).contains("infill.density"), "{}", text(&o));
+    let bad = write_config(&dir, "bad.toml", "[material]\nyoungs_modulus = 1e5\npoison_ratio = 0.3\n");
+    let t = expect_exit(&run_stage("run", &dir, None, &[bad.to_str().unwrap()]), 2);
+    assert_mentions(&t, "poison_ratio");
+    assert_mentions(&t, "line 3");
+    let bad = write_config(&dir, "bad.toml", "[infill]\ndensity = -3\n");
+    let t = expect_exit(&run_stage("run", &dir, Some(&bad), &[]), 2);
+    assert_mentions(&t, "bad.toml:2");
+    assert_mentions(&t, "infill.density");
     // A mesh path relative to the config file, and CLI flags overriding the file.
-    let good = dir.join("good.toml");
-    std::fs::write(
-        &good,
-        format!("seed = 5\n[mesh]\npath = \"{}\"\nheight = 0.4\n", data("closed/torus.obj").display()),
-    )
-    .unwrap();
-    let o = run(&["run", "-q", good.to_str().unwrap(), "--seed", "9", "-o", dir.to_str().unwrap()]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    let good = write_config(
+        &dir,
+        "good.toml",
+        &format!("seed = 5\n[mesh]\npath = \"{}\"\nheight = 0.4\n", data("closed/torus.obj").display()),
+    );
+    expect_exit(&run_stage("run", &dir, None, &[good.to_str().unwrap(), "--seed", "9"]), 0);
+    let s = summary(&dir);
     assert_eq!(s["scenario"]["seed"], 9);
     assert_eq!(s["input"]["genus"], 1);
 }
@@ -170,18 +157,17 @@ fn config_errors_name_key_and_line() {
 #[test]
 fn config_and_example_commands() {
     let o = run(&["config"]);
-    assert_eq!(code(&o), 0);
+    expect_exit(&o, 0);
     let t = String::from_utf8(o.stdout).unwrap();
-    assert!(t.contains("[material]") && t.contains("youngs_modulus"));
+    assert_mentions(&t, "[material]");
+    assert_mentions(&t, "youngs_modulus");
     let dir = tmpdir("ex");
     let f = dir.join("example.obj");
-    let o = run(&["example", "-q", "-o", f.to_str().unwrap()]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
+    expect_exit(&run(&["example", "-q", "-o", f.to_str().unwrap()]), 0);
     let o = run(&["check", "--json", f.to_str().unwrap()]);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!((v["faces"].as_u64(), v["genus"].as_i64(), v["components"].as_u64()), (Some(5120), Some(0), Some(1)));
-    let o = run(&["example", "-o", dir.join("x.fbx").to_str().unwrap()]);
-    assert_eq!(code(&o), 2);
+    expect_exit(&run(&["example", "-o", dir.join("x.fbx").to_str().unwrap()]), 2);
 }
 
 #[test]
@@ -189,31 +175,18 @@ fn usage_errors_exit_2() {
     assert_eq!(code(&run(&["frobnicate"])), 2);
     assert_eq!(code(&run(&["check"])), 2);
     assert_eq!(code(&run(&["run", "--up", "sideways"])), 2);
-    let o = run(&["--help"]);
-    assert_eq!(code(&o), 0);
-    assert!(text(&o).contains("fabric"));
+    let t = expect_exit(&run(&["--help"]), 0);
+    assert_mentions(&t, "fabric");
 }
 
 #[test]
 fn units_and_height_scale_the_mesh() {
     let dir = tmpdir("units");
-    let o =
-        run(&["run", "-q", data("closed/sphere.obj").to_str().unwrap(), "--units", "cm", "-o", dir.to_str().unwrap()]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    let sphere = data("closed/sphere.obj");
+    expect_exit(&run_stage("run", &dir, None, &[sphere.to_str().unwrap(), "--units", "cm"]), 0);
+    let s = summary(&dir);
     assert!((s["input"]["bbox_diagonal_m"].as_f64().unwrap() - 0.0346).abs() < 1e-3);
-    let o = run(&[
-        "run",
-        "-q",
-        data("closed/sphere.obj").to_str().unwrap(),
-        "--height",
-        "1.0",
-        "--up",
-        "+y",
-        "-o",
-        dir.to_str().unwrap(),
-    ]);
-    assert_eq!(code(&o), 0, "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    expect_exit(&run_stage("run", &dir, None, &[sphere.to_str().unwrap(), "--height", "1.0", "--up", "+y"]), 0);
+    let s = summary(&dir);
     assert!((s["input"]["metres_per_unit"].as_f64().unwrap() - 0.5).abs() < 1e-6, "{}", s["input"]);
 }

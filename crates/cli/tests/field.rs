@@ -4,32 +4,32 @@ mod common;
 use common::*;
 
 use clothcast_mesh::io::read_ply_properties;
-use serde_json::Value;
 
 #[test]
 fn field_writes_raw_and_cross_fields() {
     let out = tmpdir("basic");
-    let o = run(&["field", "-q", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    expect_exit(&run_stage("field", &out, None, &[]), 0);
+    let s = summary(&out);
     let f = &s["field"];
-    for k in [
-        "source",
-        "anisotropic_fraction",
-        "energy_raw",
-        "energy_pass1",
-        "energy_pass2",
-        "singularities_raw",
-        "singularities_smoothed",
-        "singularities_final",
-        "merged",
-        "cancelled",
-        "index_sum",
-        "singularities",
-        "seconds",
-    ] {
-        assert!(!f[k].is_null(), "field.{k} missing");
-    }
+    assert_keys(
+        f,
+        "field",
+        &[
+            "source",
+            "anisotropic_fraction",
+            "energy_raw",
+            "energy_pass1",
+            "energy_pass2",
+            "singularities_raw",
+            "singularities_smoothed",
+            "singularities_final",
+            "merged",
+            "cancelled",
+            "index_sum",
+            "singularities",
+            "seconds",
+        ],
+    );
     assert_eq!(f["source"], "strain");
     assert_eq!(f["index_sum"], 8, "4χ of the rounded tetrahedron");
     assert!(f["singularities_final"].as_u64().unwrap() < f["singularities_raw"].as_u64().unwrap());
@@ -67,18 +67,13 @@ fn field_writes_raw_and_cross_fields() {
 #[test]
 fn curvature_source_and_config_errors() {
     let out = tmpdir("curv");
-    let cfg = out.join("c.toml");
-    std::fs::write(&cfg, "[field]\nsource = \"curvature\"\n").unwrap();
-    let o = run(&["field", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(s["field"]["source"], "curvature");
-    std::fs::write(&cfg, "[field]\nsource = \"stress\"\n").unwrap();
-    let o = run(&["field", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("stress"), "{}", text(&o));
-    std::fs::write(&cfg, "[field]\nanisotropy_threshold = 1.5\n").unwrap();
-    let o = run(&["field", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("field.anisotropy_threshold"), "{}", text(&o));
+    let cfg = write_config(&out, "c.toml", "[field]\nsource = \"curvature\"\n");
+    expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 0);
+    assert_eq!(summary(&out)["field"]["source"], "curvature");
+    let cfg = write_config(&out, "c.toml", "[field]\nsource = \"stress\"\n");
+    let t = expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 2);
+    assert_mentions(&t, "stress");
+    let cfg = write_config(&out, "c.toml", "[field]\nanisotropy_threshold = 1.5\n");
+    let t = expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 2);
+    assert_mentions(&t, "field.anisotropy_threshold");
 }

@@ -11,10 +11,9 @@ use std::path::{Path, PathBuf};
 fn run_scaled(tag: &str, mesh: &str, height: &str, extra: &[&str]) -> PathBuf {
     let out = tmpdir(tag);
     let mesh = data(mesh);
-    let mut args = vec!["run", mesh.to_str().unwrap(), "--height", height, "-q", "-o", out.to_str().unwrap()];
+    let mut args = vec![mesh.to_str().unwrap(), "--height", height];
     args.extend_from_slice(extra);
-    let o = run(&args);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    expect_exit(&run_stage("run", &out, None, &args), 0);
     out
 }
 
@@ -44,38 +43,42 @@ fn check_run(out: &Path) -> Value {
     }
     let s = summary(out);
     let fl = &s["flattening"];
-    for k in [
-        "flipped_triangles",
-        "area_ratio_min",
-        "area_ratio_max",
-        "qc_mean",
-        "qc_max",
-        "seam_length_mismatch_max_rel",
-        "fiber_alignment_median_deg",
-        "orientation",
-        "outlines_repaired",
-        "outlines_not_simple",
-        "distorted_pieces",
-        "seconds",
-    ] {
-        assert!(!fl[k].is_null(), "flattening.{k} missing");
-    }
+    assert_keys(
+        fl,
+        "flattening",
+        &[
+            "flipped_triangles",
+            "area_ratio_min",
+            "area_ratio_max",
+            "qc_mean",
+            "qc_max",
+            "seam_length_mismatch_max_rel",
+            "fiber_alignment_median_deg",
+            "orientation",
+            "outlines_repaired",
+            "outlines_not_simple",
+            "distorted_pieces",
+            "seconds",
+        ],
+    );
     assert!(fl["distorted_pieces"].as_array().unwrap().is_empty(), "{fl}");
     assert_eq!(fl["outlines_not_simple"], 0);
     let pt = &s["patterns"];
-    for k in [
-        "pieces",
-        "seams",
-        "notches",
-        "fabric_width_mm",
-        "fabric_length_mm",
-        "utilisation",
-        "files",
-        "seconds",
-        "distortion_retries",
-    ] {
-        assert!(!pt[k].is_null(), "patterns.{k} missing");
-    }
+    assert_keys(
+        pt,
+        "patterns",
+        &[
+            "pieces",
+            "seams",
+            "notches",
+            "fabric_width_mm",
+            "fabric_length_mm",
+            "utilisation",
+            "files",
+            "seconds",
+            "distortion_retries",
+        ],
+    );
     assert_eq!(fl["flipped_triangles"], 0);
     assert_eq!(fl["orientation"], "field");
     assert!(fl["qc_mean"].as_f64().unwrap() <= 1.05);
@@ -126,9 +129,9 @@ fn check_run(out: &Path) -> Value {
 #[test]
 fn run_on_the_example_writes_everything() {
     let out = tmpdir("example");
-    let o = run(&["run", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    assert!(text(&o).contains("patterns to cut"), "{}", text(&o));
+    // Not quiet (no `run_stage`): the closing message is part of what is checked.
+    let t = expect_exit(&run(&["run", "-o", out.to_str().unwrap()]), 0);
+    assert_mentions(&t, "patterns to cut");
     check_run(&out);
 }
 
@@ -180,9 +183,8 @@ fn pieces_are_split_to_fit_the_roll() {
 fn a_coarse_box_is_refined_and_cut() {
     let out = tmpdir("coarse-box");
     let cube = data("closed/cube.obj");
-    let o = run(&["run", cube.to_str().unwrap(), "-q", "--no-refine", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("does not fit"), "{}", text(&o));
+    let t = expect_exit(&run_stage("run", &out, None, &[cube.to_str().unwrap(), "--no-refine"]), 2);
+    assert_mentions(&t, "does not fit");
 
     let out = run_scaled("coarse-box", "closed/cube.obj", "2.0", &[]);
     let s = check_run(&out);
@@ -199,11 +201,9 @@ fn a_coarse_box_is_refined_and_cut() {
     let header = String::from_utf8_lossy(&deformed[..deformed.len().min(600)]).to_string();
     assert!(header.contains(&format!("element face {faces}\n")), "{header}");
     // The input's vertices keep their ids: explicit suspension vertices still name them.
-    let cfg = out.join("corners.toml");
-    std::fs::write(&cfg, "[suspension]\nmode = \"vertices\"\nvertices = [0, 26]\n").unwrap();
-    let o = run(&["simulate", cube.to_str().unwrap(), "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("vertex 26 is not in the (repaired) mesh, which has 26 vertices"), "{}", text(&o));
+    let cfg = write_config(&out, "corners.toml", "[suspension]\nmode = \"vertices\"\nvertices = [0, 26]\n");
+    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[cube.to_str().unwrap()]), 2);
+    assert_mentions(&t, "vertex 26 is not in the (repaired) mesh, which has 26 vertices");
 }
 
 /// The capped cylinder at 1 m, refined to 1920 faces: a patch too wide for the roll bends over
@@ -232,24 +232,10 @@ fn distorted_pieces_are_reflattened_or_reported() {
     let table = data("multi/wooden_table_02.obj");
     let table_run = |tag: &str, height: &str, config: Option<&str>| {
         let out = tmpdir(tag);
-        let cfg = out.join("limits.toml");
-        let mut args = vec![
-            "run",
-            table.to_str().unwrap(),
-            "--largest-component",
-            "--height",
-            height,
-            "-q",
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        if let Some(c) = config {
-            std::fs::write(&cfg, c).unwrap();
-            args.extend(["-c", cfg.to_str().unwrap()]);
-        }
-        let o = run(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-        (summary(&out), text(&o))
+        let cfg = config.map(|c| write_config(&out, "limits.toml", c));
+        let args = [table.to_str().unwrap(), "--largest-component", "--height", height];
+        let log = expect_exit(&run_stage("run", &out, cfg.as_deref(), &args), 0);
+        (summary(&out), log)
     };
     let (s, _) = table_run("table-05", "0.5", None);
     let fl = &s["flattening"];
@@ -274,28 +260,20 @@ fn distorted_pieces_are_reflattened_or_reported() {
         assert_eq!(over, distorted.contains(&p["patch"]), "{p}");
     }
     let warning = format!("piece {} (P{}) is badly distorted", distorted[0], distorted[0]);
-    assert!(log.contains(&warning) && log.contains("max_qc_mean = 1.05"), "{log}");
+    assert_mentions(&log, &warning);
+    assert_mentions(&log, "max_qc_mean = 1.05");
 }
 
 #[test]
 fn flatten_command_and_determinism() {
-    let a = tmpdir("det-a");
-    let b = tmpdir("det-b");
-    for d in [&a, &b] {
-        let o = run(&["flatten", "-q", "--seed", "3", "-o", d.to_str().unwrap()]);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    }
-    for f in ["patterns/pattern.svg", "patterns/pattern.dxf", "patterns/pattern.pdf", "patterns/flattened.obj"] {
-        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
-    }
+    let files = ["patterns/pattern.svg", "patterns/pattern.dxf", "patterns/pattern.pdf", "patterns/flattened.obj"];
+    assert_reproducible("flatten", "3", &files);
 }
 
 #[test]
 fn a_roll_too_narrow_is_an_input_error() {
     let out = tmpdir("narrow");
-    let cfg = out.join("narrow.toml");
-    std::fs::write(&cfg, "[pattern]\nfabric_width_mm = 50.0\n").unwrap();
-    let o = run(&["run", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("fabric_width_mm"), "{}", text(&o));
+    let cfg = write_config(&out, "narrow.toml", "[pattern]\nfabric_width_mm = 50.0\n");
+    let t = expect_exit(&run_stage("run", &out, Some(&cfg), &[]), 2);
+    assert_mentions(&t, "fabric_width_mm");
 }

@@ -4,32 +4,32 @@ mod common;
 use common::*;
 
 use clothcast_mesh::io::{read_ply, read_ply_properties};
-use serde_json::Value;
 use std::collections::BTreeSet;
 
 #[test]
 fn segment_writes_patches_seams_and_summary() {
     let out = tmpdir("basic");
-    let o = run(&["segment", "-q", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    expect_exit(&run_stage("segment", &out, None, &[]), 0);
+    let s = summary(&out);
     let g = &s["segmentation"];
-    for k in [
-        "patches",
-        "disks",
-        "tiny_patches",
-        "corners",
-        "quad_fraction",
-        "singularities_inside_patches",
-        "seam_length_m",
-        "seam_field_deviation_median_deg",
-        "developability_max",
-        "merges",
-        "splits",
-        "seconds",
-    ] {
-        assert!(!g[k].is_null(), "segmentation.{k} missing");
-    }
+    assert_keys(
+        g,
+        "segmentation",
+        &[
+            "patches",
+            "disks",
+            "tiny_patches",
+            "corners",
+            "quad_fraction",
+            "singularities_inside_patches",
+            "seam_length_m",
+            "seam_field_deviation_median_deg",
+            "developability_max",
+            "merges",
+            "splits",
+            "seconds",
+        ],
+    );
     let patches = g["patches"].as_u64().unwrap() as usize;
     assert!(patches >= 2);
     assert_eq!(g["disks"].as_u64().unwrap() as usize, patches);
@@ -70,25 +70,15 @@ fn segment_writes_patches_seams_and_summary() {
 
 #[test]
 fn same_seed_same_outputs() {
-    let a = tmpdir("seed-a");
-    let b = tmpdir("seed-b");
-    for d in [&a, &b] {
-        let o = run(&["segment", "-q", "--seed", "7", "-o", d.to_str().unwrap()]);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    }
-    for f in ["segmentation.ply", "seams.obj"] {
-        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
-    }
+    assert_reproducible("segment", "7", &["segmentation.ply", "seams.obj"]);
 }
 
 #[test]
 fn bad_layout_config_is_an_input_error() {
     let out = tmpdir("badcfg");
-    let cfg = out.join("bad.toml");
-    std::fs::write(&cfg, "[layout]\nmax_deviation = 120.0\n").unwrap();
-    let o = run(&["segment", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("layout.max_deviation"), "{}", text(&o));
+    let cfg = write_config(&out, "bad.toml", "[layout]\nmax_deviation = 120.0\n");
+    let t = expect_exit(&run_stage("segment", &out, Some(&cfg), &[]), 2);
+    assert_mentions(&t, "layout.max_deviation");
 }
 
 /// Spot (23k faces): every patch a disk with no singularity inside and none tiny (its last
@@ -98,9 +88,8 @@ fn bad_layout_config_is_an_input_error() {
 fn spot_has_no_tiny_patches_and_field_aligned_seams() {
     let out = tmpdir("spot");
     let mesh = data("closed/spot.ply");
-    let o = run(&["segment", mesh.to_str().unwrap(), "--height", "0.5", "-q", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let s: Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    expect_exit(&run_stage("segment", &out, None, &[mesh.to_str().unwrap(), "--height", "0.5"]), 0);
+    let s = summary(&out);
     let g = &s["segmentation"];
     assert_eq!(g["disks"], g["patches"]);
     assert_eq!(g["singularities_inside_patches"], 0);

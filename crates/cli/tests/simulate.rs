@@ -9,13 +9,9 @@ use serde_json::Value;
 #[test]
 fn coarse_start_is_reported_and_reaches_the_same_equilibrium() {
     let (plain, coarse) = (tmpdir("coarse-off"), tmpdir("coarse-on"));
-    let cfg = coarse.join("c.toml");
-    std::fs::create_dir_all(&coarse).unwrap();
-    std::fs::write(&cfg, "[solver]\ncoarse_start_min_faces = 1000\ncoarse_start_ratio = 4\n").unwrap();
-    let o = run(&["simulate", "-q", "-o", plain.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", coarse.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let cfg = write_config(&coarse, "c.toml", "[solver]\ncoarse_start_min_faces = 1000\ncoarse_start_ratio = 4\n");
+    expect_exit(&run_stage("simulate", &plain, None, &[]), 0);
+    expect_exit(&run_stage("simulate", &coarse, Some(&cfg), &[]), 0);
     let (a, b) = (summary(&plain), summary(&coarse));
     // The built-in example is below the default threshold: not tried.
     assert!(a["simulation"]["coarse_start"].is_null(), "{}", a["simulation"]["coarse_start"]);
@@ -30,23 +26,24 @@ fn coarse_start_is_reported_and_reaches_the_same_equilibrium() {
 #[test]
 fn simulate_writes_deformed_mesh_and_summary() {
     let out = tmpdir("basic");
-    let o = run(&["simulate", "-q", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    expect_exit(&run_stage("simulate", &out, None, &[]), 0);
     let s = summary(&out);
     let sim = &s["simulation"];
-    for k in [
-        "converged",
-        "newton_iterations",
-        "residual_rel",
-        "max_displacement_m",
-        "mean_displacement_m",
-        "fixed_vertices",
-        "liquid_volume_m3",
-        "pressure_max_pa",
-        "seconds",
-    ] {
-        assert!(!sim[k].is_null(), "simulation.{k} missing");
-    }
+    assert_keys(
+        sim,
+        "simulation",
+        &[
+            "converged",
+            "newton_iterations",
+            "residual_rel",
+            "max_displacement_m",
+            "mean_displacement_m",
+            "fixed_vertices",
+            "liquid_volume_m3",
+            "pressure_max_pa",
+            "seconds",
+        ],
+    );
     assert_eq!(sim["converged"], true);
     assert!(sim["residual_rel"].as_f64().unwrap() <= 1e-8);
     // Filled to the top: (nearly) every free vertex is wetted, so the residual below the level
@@ -84,14 +81,12 @@ fn simulate_writes_deformed_mesh_and_summary() {
 #[test]
 fn non_convergence_is_an_error_unless_allowed() {
     let out = tmpdir("nonconv");
-    let cfg = out.join("c.toml");
-    std::fs::write(&cfg, "[solver]\nmax_iterations = 2\n").unwrap();
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("did not converge") && text(&o).contains("--allow-unconverged"), "{}", text(&o));
+    let cfg = write_config(&out, "c.toml", "[solver]\nmax_iterations = 2\n");
+    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 1);
+    assert_mentions(&t, "did not converge");
+    assert_mentions(&t, "--allow-unconverged");
     assert!(!out.join("deformed.ply").exists());
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "--allow-unconverged", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
     let s = summary(&out);
     assert_eq!(s["simulation"]["converged"], false);
     assert_eq!(s["simulation"]["termination"], "max_iterations");
@@ -102,15 +97,13 @@ fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     // The built-in example (0.5 m) filled to 0.1 m: the fabric above the liquid hangs slack or
     // wrinkled, and 15 iterations leave most of the residual there (it converges in 76).
     let out = tmpdir("nonconv-where");
-    let cfg = out.join("c.toml");
-    std::fs::write(&cfg, "[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 15\n").unwrap();
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    let msg = text(&o);
-    assert!(msg.contains("the largest unbalanced force") && msg.contains("above the fill level"), "{msg}");
-    assert!(msg.contains("below the level the relative residual") && msg.contains("head_pressure"), "{msg}");
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "--allow-unconverged", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let cfg = write_config(&out, "c.toml", "[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 15\n");
+    let msg = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 1);
+    assert_mentions(&msg, "the largest unbalanced force");
+    assert_mentions(&msg, "above the fill level");
+    assert_mentions(&msg, "below the level the relative residual");
+    assert_mentions(&msg, "head_pressure");
+    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
     let sim = &summary(&out)["simulation"];
     let site = &sim["largest_residual"];
     let n_vertices = clothcast_mesh::shapes::rounded_tetrahedron(0.5).n_vertices() as u64;
@@ -126,78 +119,61 @@ fn simulation_errors_name_the_input_files_vertices() {
     // numbers every vertex one lower. The vertex behind the support is (0, 0, 0): the input's
     // vertex 1 (the repaired mesh's 0).
     let out = tmpdir("renumbered");
-    let (obj, cfg, dir) = (out.join("t.obj"), out.join("s.toml"), out.join("o"));
+    let obj = out.join("t.obj");
     std::fs::write(&obj, "v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 2 4 3\nf 2 3 5\nf 2 5 4\nf 3 4 5\n").unwrap();
-    std::fs::write(&cfg, "[[supports]]\npoint = [0.0, 0.0, 0.5]\nnormal = [0.0, 0.0, 1.0]\n").unwrap();
-    let (obj, cfg, dir) = (obj.to_str().unwrap(), cfg.to_str().unwrap(), dir.to_str().unwrap());
-    let o = run(&["simulate", "-q", "--repair", obj, "-c", cfg, "-o", dir]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("vertex 1 starts"), "{}", text(&o));
+    let cfg = write_config(&out, "s.toml", "[[supports]]\npoint = [0.0, 0.0, 0.5]\nnormal = [0.0, 0.0, 1.0]\n");
+    let t = expect_exit(&run_stage("simulate", &out.join("o"), Some(&cfg), &["--repair", obj.to_str().unwrap()]), 2);
+    assert_mentions(&t, "vertex 1 starts");
 }
 
 #[test]
 fn scenario_errors_exit_2() {
     let out = tmpdir("scen");
     // Inward-oriented closed mesh: refused, fixed by --repair.
-    let o = run(&["simulate", "-q", data("handmade/tet_inward.obj").to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("oriented inward"), "{}", text(&o));
-    let o = run(&[
-        "simulate",
-        "-q",
-        "--repair",
-        data("handmade/tet_inward.obj").to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let inward = data("handmade/tet_inward.obj");
+    let t = expect_exit(&run_stage("simulate", &out, None, &[inward.to_str().unwrap()]), 2);
+    assert_mentions(&t, "oriented inward");
+    expect_exit(&run_stage("simulate", &out, None, &["--repair", inward.to_str().unwrap()]), 0);
     // A mold a micrometre tall (the units or the height wrong): refused, not solved into NaN.
-    let o = run(&["simulate", "-q", "--height", "1e-6", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("m across once in metres"), "{}", text(&o));
+    let t = expect_exit(&run_stage("simulate", &out, None, &["--height", "1e-6"]), 2);
+    assert_mentions(&t, "m across once in metres");
     // An open dome with its opening below the fill level: the liquid would spill.
-    let o = run(&["simulate", "-q", data("open/hemisphere.off").to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("spill"), "{}", text(&o));
+    let dome = data("open/hemisphere.off");
+    let t = expect_exit(&run_stage("simulate", &out, None, &[dome.to_str().unwrap()]), 2);
+    assert_mentions(&t, "spill");
     // The same dome hung upside down and held at its rim works.
-    let cfg = out.join("bowl.toml");
-    std::fs::write(
-        &cfg,
-        format!(
+    let cfg = write_config(
+        &out,
+        "bowl.toml",
+        &format!(
             "[mesh]\npath = \"{}\"\nup = \"-z\"\nheight = 0.3\n[suspension]\nmode = \"boundary\"\n",
-            data("open/hemisphere.off").display()
+            dome.display()
         ),
-    )
-    .unwrap();
-    let o = run(&["simulate", "-q", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    );
+    expect_exit(&run_stage("simulate", &out, None, &[cfg.to_str().unwrap()]), 0);
     assert_eq!(summary(&out)["simulation"]["converged"], true);
     // Suspension vertex that does not exist.
-    std::fs::write(&cfg, "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n").unwrap();
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("99999"), "{}", text(&o));
+    let cfg = write_config(&out, "bowl.toml", "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n");
+    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 2);
+    assert_mentions(&t, "99999");
 }
 
 #[test]
 fn supports_and_explicit_vertices() {
     let out = tmpdir("sup");
-    let cfg = out.join("c.toml");
     // A floor 2 mm below the example's tip (its tip rises: no contact, but the support is
     // parsed, checked and reported), then six explicit clamped vertices with a partial fill.
-    std::fs::write(&cfg, "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n").unwrap();
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let cfg = write_config(&out, "c.toml", "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n");
+    expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 0);
     let s = summary(&out);
     assert_eq!(s["simulation"]["support_forces_n"].as_array().unwrap().len(), 1);
     assert_eq!(s["scenario"]["supports"][0]["normal"], serde_json::json!([0.0, 0.0, 1.0]));
-    std::fs::write(
-        &cfg,
+    let cfg = write_config(
+        &out,
+        "c.toml",
         "[suspension]\nmode = \"vertices\"\nvertices = [0, 1, 2, 3, 4, 5]\n[infill]\nfill_level = 0.3\n",
-    )
-    .unwrap();
-    let o = run(&["simulate", "-q", "-c", cfg.to_str().unwrap(), "--allow-unconverged", "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    );
+    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
     assert_eq!(summary(&out)["simulation"]["fixed_vertices"], 6);
 }
 
@@ -208,32 +184,32 @@ fn supports_and_explicit_vertices() {
 #[test]
 fn a_rim_sagging_below_the_level_is_warned_about() {
     let out = tmpdir("bowl");
-    let cfg = out.join("bowl.toml");
-    std::fs::write(
-        &cfg,
+    let cfg = write_config(
+        &out,
+        "bowl.toml",
         "[mesh]\nup = \"-z\"\n[suspension]\nmode = \"vertices\"\nvertices = [1826, 799, 1151, 1496]\n\
          [infill]\nfill_level = 0.29\n",
-    )
-    .unwrap();
+    );
     let mesh = data("open/hemisphere.off");
-    let args = ["simulate", mesh.to_str().unwrap(), "--height", "0.3", "-q", "-c", cfg.to_str().unwrap()];
-    let o = run(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    assert!(text(&o).contains("below the liquid level at equilibrium: the liquid would spill there"), "{}", text(&o));
+    let args = [mesh.to_str().unwrap(), "--height", "0.3"];
+    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &args), 0);
+    assert_mentions(&t, "below the liquid level at equilibrium: the liquid would spill there");
     let liquid = summary(&out)["simulation"]["liquid_volume_m3"].as_f64().unwrap();
     assert!(liquid > 0.05, "{liquid}");
     // Clamped all round, nothing sags free: no warning.
-    std::fs::write(&cfg, "[mesh]\nup = \"-z\"\n[suspension]\nmode = \"boundary\"\n[infill]\nfill_level = 0.29\n")
-        .unwrap();
-    let o = run(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    assert!(!text(&o).contains("would spill"), "{}", text(&o));
+    let cfg = write_config(
+        &out,
+        "bowl.toml",
+        "[mesh]\nup = \"-z\"\n[suspension]\nmode = \"boundary\"\n[infill]\nfill_level = 0.29\n",
+    );
+    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &args), 0);
+    assert!(!t.contains("would spill"), "{t}");
 }
 
 #[test]
 fn bench_reports_iterations_and_factorization_floor() {
     let o = run(&["bench", "--json"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    expect_exit(&o, 0);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     let row = &v[0];
     assert_eq!(row["converged"], true);
@@ -244,10 +220,9 @@ fn bench_reports_iterations_and_factorization_floor() {
     assert_eq!(row["factor_precision"], "double");
     // Forced single precision: the same iterations, each step solved iteratively.
     let dir = tmpdir("bench-single");
-    let cfg = dir.join("single.toml");
-    std::fs::write(&cfg, "[solver]\nfactor_precision = \"single\"\n").unwrap();
+    let cfg = write_config(&dir, "single.toml", "[solver]\nfactor_precision = \"single\"\n");
     let o = run(&["bench", "--json", "-c", cfg.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    expect_exit(&o, 0);
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v[0]["factor_precision"], "single");
     assert_eq!(v[0]["converged"], true);

@@ -25,6 +25,29 @@ pub fn code(o: &Output) -> i32 {
     o.status.code().expect("exited normally, not by a signal")
 }
 
+/// Assert that the binary exited with `code` (printing its output if not); returns its output.
+pub fn expect_exit(o: &Output, code: i32) -> String {
+    let t = text(o);
+    assert_eq!(o.status.code(), Some(code), "{t}");
+    t
+}
+
+/// Assert that `text` (a run's output) contains `needle`, printing it if not.
+pub fn assert_mentions(text: &str, needle: &str) {
+    assert!(text.contains(needle), "expected {needle:?} in\n{text}");
+}
+
+/// Run `clothcast STAGE -q [-c CFG] EXTRA... -o OUT` (a pipeline command writing into `out`).
+pub fn run_stage(stage: &str, out: &Path, cfg: Option<&Path>, extra: &[&str]) -> Output {
+    let mut args = vec![stage, "-q"];
+    if let Some(cfg) = cfg {
+        args.extend(["-c", cfg.to_str().unwrap()]);
+    }
+    args.extend_from_slice(extra);
+    args.extend(["-o", out.to_str().unwrap()]);
+    run(&args)
+}
+
 /// A test mesh under `data/meshes/`.
 pub fn data(rel: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes")).join(rel)
@@ -38,7 +61,33 @@ pub fn tmpdir(name: &str) -> PathBuf {
     d
 }
 
+/// Write the scenario file `dir/name` (overwriting it); returns its path.
+pub fn write_config(dir: &Path, name: &str, toml: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, toml).unwrap();
+    path
+}
+
 /// `summary.json` of an output directory.
 pub fn summary(dir: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// Assert that every one of `keys` is present and not null in `v` (the summary's section `what`).
+pub fn assert_keys(v: &Value, what: &str, keys: &[&str]) {
+    for k in keys {
+        assert!(!v[k].is_null(), "{what}.{k} missing");
+    }
+}
+
+/// Run `clothcast STAGE --seed SEED` twice, into two fresh directories, and assert that `files`
+/// come out byte for byte the same.
+pub fn assert_reproducible(stage: &str, seed: &str, files: &[&str]) {
+    let (a, b) = (tmpdir(&format!("{stage}-seed-a")), tmpdir(&format!("{stage}-seed-b")));
+    for d in [&a, &b] {
+        expect_exit(&run_stage(stage, d, None, &["--seed", seed]), 0);
+    }
+    for f in files {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
 }
