@@ -78,7 +78,7 @@ impl CornerRule {
 }
 
 /// The patches of a mesh cut along seams.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Patches {
     /// Patch of every face (`0..n`, numbered by first face).
     pub patch_of_face: FaceData<u32>,
@@ -107,6 +107,128 @@ impl Patches {
         for (f, &p) in self.patch_of_face.enumerate() {
             out[p as usize].push(f);
         }
+        out
+    }
+
+    /// The patches once the seams are `seam`, where these are `patches_with(mesh, old seam,
+    /// rule)` and every edge whose seam flag changed has an end in `touched`: equal to
+    /// `patches_with(mesh, seam, rule)`, but only the patches around the change are measured
+    /// again. The faces of the patches at `touched` are regrouped; a patch away from them keeps
+    /// its faces, its cut edges (between two of its faces, or to another patch before and
+    /// after) and its measure, unless a vertex of its sees the patches around it regrouped
+    /// (its corners count the patches meeting there). Costs O(F) in plain passes, plus the
+    /// measure of those patches (the full measure is the cost of a seam change otherwise: the
+    /// re-routing of a chain between two patches measured every patch of the mesh).
+    pub fn reseamed(&self, mesh: &Mesh, seam: &EdgeData<bool>, touched: &[VertexId], rule: &CornerRule) -> Patches {
+        let old = &self.patch_of_face;
+        // The patches at the touched vertices, and their faces (ascending).
+        let mut affected = vec![false; self.n];
+        for &v in touched {
+            for f in mesh.vertex_faces(v) {
+                affected[old[f] as usize] = true;
+            }
+        }
+        let region: Vec<FaceId> = mesh.face_ids().filter(|&f| affected[old[f] as usize]).collect();
+        let mut local_of = vec![u32::MAX; mesh.n_faces()];
+        for (i, &f) in region.iter().enumerate() {
+            local_of[f.idx()] = i as u32;
+        }
+        let local = |f: FaceId| Some(local_of[f.idx()] as usize).filter(|_| local_of[f.idx()] != u32::MAX);
+        let mut uf = UnionFind::new(region.len());
+        for (i, &f) in region.iter().enumerate() {
+            for k in 0..3 {
+                let h = mesh.face_halfedge(f, k);
+                let Some(t) = mesh.twin(h) else { continue };
+                if seam[mesh.edge(h)] {
+                    continue;
+                }
+                match local(mesh.face(t)) {
+                    Some(j) => {
+                        uf.union(i as u32, j as u32);
+                    }
+                    // An uncut edge out of the region: `touched` missed a changed edge.
+                    None => return patches_with(mesh, seam, rule),
+                }
+            }
+        }
+        let (component, k) = uf.labels();
+        // Provisional ids (kept patches as they were, the region's components after them),
+        // then numbered by first face, as `patches_with` numbers them.
+        let provisional = |f: FaceId| match local(f) {
+            Some(i) => self.n as u32 + component[i],
+            None => old[f],
+        };
+        let mut number = vec![u32::MAX; self.n + k];
+        let mut n = 0u32;
+        let mut new = FaceData::filled(mesh.n_faces(), 0u32);
+        for f in mesh.face_ids() {
+            let q = provisional(f) as usize;
+            if number[q] == u32::MAX {
+                number[q] = n;
+                n += 1;
+            }
+            new[f] = number[q];
+        }
+        let n = n as usize;
+        // Measured again: the region's patches, and those with a vertex of a region face where
+        // the faces around it are grouped differently (is_cut and distinct labels there).
+        let mut remeasure = vec![false; n];
+        for &f in &region {
+            remeasure[new[f] as usize] = true;
+        }
+        let mut verts: Vec<VertexId> = region.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
+        verts.sort_unstable();
+        verts.dedup();
+        for v in verts {
+            let around: Vec<FaceId> = mesh.vertex_faces(v).collect();
+            let regrouped = around
+                .iter()
+                .enumerate()
+                .any(|(i, &a)| around[i + 1..].iter().any(|&b| (old[a] == old[b]) != (new[a] == new[b])));
+            if regrouped {
+                for &f in &around {
+                    remeasure[new[f] as usize] = true;
+                }
+            }
+        }
+        let mut faces: Vec<Vec<FaceId>> = vec![Vec::new(); n];
+        let mut was = vec![u32::MAX; n];
+        for f in mesh.face_ids() {
+            let q = new[f] as usize;
+            if remeasure[q] {
+                faces[q].push(f);
+            } else {
+                was[q] = old[f];
+            }
+        }
+        let (label, cut) = (|f: FaceId| new[f], |e: EdgeId| seam[e]);
+        let mut out = Patches {
+            patch_of_face: FaceData::from_vec(Vec::new()),
+            n,
+            euler: Vec::with_capacity(n),
+            loops: Vec::with_capacity(n),
+            area: Vec::with_capacity(n),
+            corners: Vec::with_capacity(n),
+            candidates: Vec::with_capacity(n),
+        };
+        for q in 0..n {
+            if remeasure[q] {
+                let i = region_info(mesh, &faces[q], &label, &cut, rule);
+                out.euler.push(i.euler);
+                out.loops.push(i.loops);
+                out.area.push(i.area);
+                out.corners.push(i.corners);
+                out.candidates.push(i.candidates);
+            } else {
+                let p = was[q] as usize;
+                out.euler.push(self.euler[p]);
+                out.loops.push(self.loops[p]);
+                out.area.push(self.area[p]);
+                out.corners.push(self.corners[p].clone());
+                out.candidates.push(self.candidates[p].clone());
+            }
+        }
+        out.patch_of_face = new;
         out
     }
 }
@@ -493,4 +615,58 @@ pub fn on_seam(mesh: &Mesh, seam: &EdgeData<bool>) -> VertexData<bool> {
         }
     }
     on
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clothcast_mesh::shapes;
+    use clothcast_mesh::util::SplitMix64;
+
+    /// Seams flipped at random around random vertices (slits, loops, cuts to the boundary and
+    /// all), one change after another: measuring only the patches around each change gives the
+    /// patches measured from scratch, numbering included, also with chord angles and a field.
+    #[test]
+    fn reseamed_patches_equal_the_patches_measured_from_scratch() {
+        for (mesh, chords) in [(shapes::icosphere(3, 1.0), 1), (shapes::grid(14, 11, 1.0, 0.8), 3)] {
+            let normals = mesh.face_normals();
+            let field = normals.map(|n| {
+                let t = Vec3::x() - n * n.x;
+                if t.norm() > 1e-9 { t.normalize() } else { Vec3::y() }
+            });
+            let mut index = VertexData::filled(mesh.n_vertices(), 0);
+            index[VertexId(7)] = 1;
+            let rule = CornerRule::new(&mesh, &index).with_chords(chords).with_field(field);
+            // Three plane cuts to start from.
+            let centroid = |f: FaceId| mesh.face_positions(f).iter().sum::<Vec3>() / 3.0;
+            let side = |f: FaceId| {
+                let c = centroid(f);
+                (c.x > 0.1, c.y > 0.3, c.z > -0.2)
+            };
+            let mut seam = EdgeData::filled(mesh.n_edges(), false);
+            for e in mesh.edges() {
+                if let (a, Some(b)) = mesh.edge_faces(e) {
+                    seam[e] = side(a) != side(b);
+                }
+            }
+            let mut current = patches_with(&mesh, &seam, &rule);
+            let mut rng = SplitMix64::new(3);
+            let mut remeasured = 0;
+            for _ in 0..150 {
+                let v = VertexId(rng.below(mesh.n_vertices()) as u32);
+                for h in mesh.outgoing(v).collect::<Vec<_>>() {
+                    if rng.below(3) == 0 {
+                        let e = mesh.edge(h);
+                        seam[e] = !seam[e];
+                    }
+                }
+                // Every changed edge has an end at v: v alone is enough.
+                let next = current.reseamed(&mesh, &seam, &[v], &rule);
+                assert_eq!(next, patches_with(&mesh, &seam, &rule));
+                remeasured += usize::from(next.n != current.n);
+                current = next;
+            }
+            assert!(remeasured > 5, "the changes split and join patches ({remeasured})");
+        }
+    }
 }

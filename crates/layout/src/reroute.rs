@@ -185,7 +185,9 @@ pub fn reroute(
                     trial[e] = true;
                 }
             }
-            let after = patches_with(m2, &trial, &rule2);
+            // The seams changed only along the chain and the new path.
+            let touched: Vec<VertexId> = chain.iter().chain(&path).copied().collect();
+            let after = current.reseamed(m2, &trial, &touched, &rule2);
             let valid =
                 after.n == current.n && (0..after.n).all(|i| after.is_disk(i)) && quads(&after) >= quads(&current);
             valid.then_some((path, trial, after))
