@@ -53,7 +53,7 @@ pub struct Input {
 impl Input {
     /// The input file's number of mesh vertex `v` (a repair renumbers). A vertex the refinement
     /// added has none: it is numbered after the input file's vertices, in the order added
-    /// (its own number when no repair removed a vertex).
+    /// (its own number when a repair neither removed nor added vertices).
     pub fn input_vertex(&self, v: VertexId) -> VertexId {
         match self.vertex_to_input.get(v.idx()) {
             Some(&i) => VertexId::new(i as usize),
@@ -160,6 +160,8 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
     if to_metres != 1.0 {
         let p = mesh.positions().map(|x| x * to_metres);
         if let Some(v) = p.iter().position(|x| !x.iter().all(|c| c.is_finite())) {
+            // Named in the input file's numbering, as every error is.
+            let v = prepared.vertex_to_input.get(v).map_or(v, |&i| i as usize);
             return Err(Failure::Input(anyhow!(
                 "{label}: vertex {v} is not finite once scaled by {to_metres:e} to metres (mesh.height or mesh.units)"
             )));

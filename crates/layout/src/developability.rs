@@ -17,8 +17,9 @@
 //!
 //! Complexity: O(F).
 
-use clothcast_mesh::{Mesh, VertexData};
+use clothcast_mesh::{Mesh, VertexData, VertexId};
 use nalgebra::Matrix3;
+use rayon::prelude::*;
 
 /// `ρ_v A_v` for every vertex (0 on the mesh boundary): the contribution of each vertex to a
 /// patch score.
@@ -26,7 +27,11 @@ pub fn vertex_scores(mesh: &Mesh) -> VertexData<f64> {
     let normals = mesh.face_normals();
     let angles = mesh.corner_angles();
     let areas = mesh.vertex_areas();
-    mesh.vertices()
+    // Per vertex, in parallel (a 3×3 eigenproblem each; the values do not depend on the
+    // threads).
+    let scores: Vec<f64> = (0..mesh.n_vertices())
+        .into_par_iter()
+        .map(VertexId::new)
         .map(|v| {
             if mesh.is_boundary_vertex(v) {
                 return 0.0;
@@ -46,7 +51,8 @@ pub fn vertex_scores(mesh: &Mesh) -> VertexData<f64> {
             }
             3.0 * lmin / (std::f64::consts::PI * mean_len * mean_len) * areas[v]
         })
-        .collect()
+        .collect();
+    VertexData::from_vec(scores)
 }
 
 #[cfg(test)]

@@ -185,9 +185,7 @@ pub fn reroute(
                     trial[e] = true;
                 }
             }
-            // The seams changed only along the chain and the new path.
-            let touched: Vec<VertexId> = chain.iter().chain(&path).copied().collect();
-            let after = current.reseamed(m2, &trial, &touched, &rule2);
+            let after = current.reseamed(m2, &out.seam, &trial, &rule2);
             let valid =
                 after.n == current.n && (0..after.n).all(|i| after.is_disk(i)) && quads(&after) >= quads(&current);
             valid.then_some((path, trial, after))

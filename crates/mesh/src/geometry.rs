@@ -117,18 +117,25 @@ impl Mesh {
     }
     /// Corner angles, indexed by halfedge (`3f + k` is the angle at corner `k` of `f`).
     pub fn corner_angles(&self) -> HalfedgeData<f64> {
-        let mut out = Vec::with_capacity(3 * self.n_faces());
-        for f in self.face_ids() {
-            let p = self.face_positions(f);
+        use rayon::prelude::*;
+        // Per face, in parallel (each angle is computed alone: the values do not depend on
+        // the threads); the layout measures its patches' corners with these many times.
+        let mut out = vec![0.0; 3 * self.n_faces()];
+        out.par_chunks_mut(3).enumerate().for_each(|(f, a)| {
+            let p = self.face_positions(FaceId::new(f));
             for k in 0..3 {
-                out.push(angle_at(&p[k], &p[(k + 1) % 3], &p[(k + 2) % 3]));
+                a[k] = angle_at(&p[k], &p[(k + 1) % 3], &p[(k + 2) % 3]);
             }
-        }
+        });
         HalfedgeData::from_vec(out)
     }
     /// Sum of corner angles at each vertex.
     pub fn angle_sums(&self) -> VertexData<f64> {
-        let angles = self.corner_angles();
+        self.angle_sums_of(&self.corner_angles())
+    }
+    /// Sum at each vertex of the given corner angles (those of [`Mesh::corner_angles`]), for
+    /// callers that need both.
+    pub fn angle_sums_of(&self, angles: &HalfedgeData<f64>) -> VertexData<f64> {
         let mut s = VertexData::filled(self.n_vertices(), 0.0);
         for (h, a) in angles.enumerate() {
             s[self.tail(h)] += a;

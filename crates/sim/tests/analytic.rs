@@ -379,7 +379,7 @@ fn solve_with_precision(mesh: &Mesh, p: clothcast_sim::newton::FactorPrecision) 
 
 /// A single-precision factor (preconditioning a double-precision step solve) gives the Newton
 /// iterates of the double-precision direct solve: same iteration count, same energies and
-/// equilibrium up to round-off. Hanging, filled and wrinkling, on a 0.25 m icosphere.
+/// equilibrium up to round-off. Hanging, filled and wrinkling, on an icosphere of radius 0.25 m.
 #[test]
 fn single_precision_factor_follows_the_double_precision_path() {
     use clothcast_sim::newton::FactorPrecision;
