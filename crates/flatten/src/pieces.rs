@@ -35,7 +35,7 @@
 //!
 //! Complexity: one sparse factorization per patch (BFF), O(F) otherwise.
 
-use crate::bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, bff_flatten, distortion};
+use crate::bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStats, distortion};
 use crate::error::FlattenError;
 use crate::untangle::untangle;
 use clothcast_layout::Segmentation;
@@ -602,10 +602,13 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions, limits: &DistortionLimits) -> 
     if flat.stats.flipped_triangles > 0 {
         retried = true;
         let stronger = BffOptions { cotan_area_floor: bff.cotan_area_floor.max(1e-6), ..bff.clone() };
-        if let Ok(f2) = bff_flatten(pm, &stronger)
+        // Kept with its prepared problem, so that an outline repair below starts from it.
+        if let Ok(p2) = BffProblem::new(pm, &stronger)
+            && let Ok(f2) = p2.flatten(stronger.boundary_relief, stronger.boundary_smoothing)
             && f2.stats.flipped_triangles < flat.stats.flipped_triangles
         {
             flat = f2;
+            problem = p2;
         }
         repaired_vertices += untangle_flattening(pm, &mut flat);
     }
