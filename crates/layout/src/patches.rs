@@ -549,9 +549,15 @@ pub fn patches(mesh: &Mesh, seam: &EdgeData<bool>) -> Patches {
 
 /// Patches of `mesh` cut along `seam` edges, corners by `rule`.
 pub fn patches_with(mesh: &Mesh, seam: &EdgeData<bool>, rule: &CornerRule) -> Patches {
-    let nf = mesh.n_faces();
-    // Faces connected across non-seam interior edges.
-    let mut uf = UnionFind::new(nf);
+    let (labels, n) = patch_labels(mesh, seam);
+    patches_from_labels(mesh, labels, n, seam, rule)
+}
+
+/// The patch of every face of `mesh` cut along `seam` edges (faces connected across non-seam
+/// interior edges, numbered by first face, as in [`Patches::patch_of_face`]) and their count,
+/// without measuring the patches.
+pub fn patch_labels(mesh: &Mesh, seam: &EdgeData<bool>) -> (FaceData<u32>, usize) {
+    let mut uf = UnionFind::new(mesh.n_faces());
     for e in mesh.edges() {
         if let (a, Some(b)) = mesh.edge_faces(e)
             && !seam[e]
@@ -560,7 +566,7 @@ pub fn patches_with(mesh: &Mesh, seam: &EdgeData<bool>, rule: &CornerRule) -> Pa
         }
     }
     let (labels, n) = uf.labels();
-    patches_from_labels(mesh, FaceData::from_vec(labels), n, seam, rule)
+    (FaceData::from_vec(labels), n)
 }
 
 /// Patches for a given face labelling (`0..n`, every label used; an edge is cut when it is a

@@ -55,7 +55,9 @@ use crate::cutgraph::{self, make_disks};
 use crate::developability::vertex_scores;
 use crate::flipout::{FlipOutOptions, straighten_network};
 use crate::network;
-use crate::patches::{CornerRule, RegionInfo, edge_between, patches, patches_with, region_info, seam_edges};
+use crate::patches::{
+    CornerRule, RegionInfo, edge_between, patch_labels, patches, patches_with, region_info, seam_edges,
+};
 use crate::remesh::{RemeshOptions, insert_polylines};
 use crate::split::{field_aligned_split, spectral_split, two_sides};
 use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
@@ -355,7 +357,7 @@ pub fn segment(
             // many quads (corners depend on the final geometry, so both are straightened and
             // compared). Chains next to patches that lost their quad are then left alone and
             // the re-route is tried once more.
-            let labels = patches(&base.mesh, &base.seam).patch_of_face;
+            let (labels, _) = patch_labels(&base.mesh, &base.seam);
             let sides = |chain: &[VertexId]| -> [u32; 2] {
                 let e = edge_between(&base.mesh, chain[0], chain[1]).expect("chains are edge paths");
                 let (a, b) = base.mesh.edge_faces(e);
@@ -981,15 +983,18 @@ impl<'a> State<'a> {
         field: &FaceData<Vec3>,
         chords: usize,
     ) -> Self {
-        let p = patches(mesh, seam);
-        let faces = p.faces();
+        let (label, n) = patch_labels(mesh, seam);
+        let mut faces = vec![Vec::new(); n];
+        for (f, &p) in label.enumerate() {
+            faces[p as usize].push(f);
+        }
         let vertex_areas = mesh.vertex_areas();
         let density =
             mesh.vertices().map(|v| if vertex_areas[v] > 0.0 { scores[v] / vertex_areas[v] } else { 0.0 }).collect();
         Self {
             mesh,
             seam: seam.clone(),
-            label: p.patch_of_face,
+            label,
             faces,
             singular,
             scores,
