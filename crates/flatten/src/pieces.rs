@@ -578,7 +578,7 @@ pub enum OutlineRepair {
     },
 }
 
-/// Flattens one disk-shaped piece by BFF ([`bff_flatten`]). Flipped triangles: retried with a
+/// Flattens one disk-shaped piece by BFF ([`bff_flatten`](crate::bff::bff_flatten)). Flipped triangles: retried with a
 /// stronger cotangent floor, then untangled. Flipped triangles, or a flattening over `limits`:
 /// flattened again on the intrinsic Delaunay triangulation, kept if less distorted. An outline
 /// that crosses itself, which cannot be cut (BFF lays the boundary out from its curvature, and
@@ -592,7 +592,7 @@ pub enum OutlineRepair {
 /// loop); the triangles along the loop take the distortion.
 ///
 /// # Errors
-/// Those of [`bff_flatten`] on the first flattening.
+/// Those of [`bff_flatten`](crate::bff::bff_flatten) on the first flattening.
 pub fn flatten_piece(pm: &Mesh, bff: &BffOptions, limits: &DistortionLimits) -> Result<PieceFlattening, FlattenError> {
     // The prepared problem an outline repair re-flattens from: its interior Laplacian is
     // factored once for the first flattening and every repair candidate.

@@ -157,8 +157,8 @@ impl Patches {
                     Some(j) => {
                         uf.union(i as u32, j as u32);
                     }
-                    // An uncut edge out of the region (only where a vertex's faces are not all
-                    // around it: not on a manifold mesh).
+                    // An uncut edge out of the region: `self` was not measured on `old_seam`
+                    // (or the mesh is not manifold). Measured from scratch instead.
                     None => return patches_with(mesh, seam, rule),
                 }
             }

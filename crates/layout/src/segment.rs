@@ -29,7 +29,7 @@
 //!    and no more Σ |corners − 4| in total;
 //!    then non-quads are split along the field from a concave corner or a corner, traced on
 //!    the final mesh, the new seams straightened with every old seam vertex pinned, kept when
-//!    the share of quads (after the tiny pass) rises; then cusps ([`State::zip_cusps`]: a
+//!    the share of quads (after the tiny pass) rises; then cusps (`State::zip_cusps`: a
 //!    non-quad's thin spike between two seams that leave a junction along one field arm is
 //!    cut off across and handed to a neighbour), kept on the same terms. A last tiny pass
 //!    follows.
@@ -357,13 +357,12 @@ pub fn segment(
             // many quads (corners depend on the final geometry, so both are straightened and
             // compared). Chains next to patches that lost their quad are then left alone and
             // the re-route is tried once more.
-            let (labels, _) = patch_labels(&base.mesh, &base.seam);
+            let (labels, n_patches) = patch_labels(&base.mesh, &base.seam);
             let sides = |chain: &[VertexId]| -> [u32; 2] {
                 let e = edge_between(&base.mesh, chain[0], chain[1]).expect("chains are edge paths");
                 let (a, b) = base.mesh.edge_faces(e);
                 [labels[a], labels[b.unwrap_or(a)]]
             };
-            let n_patches = labels.iter().map(|&l| l as usize + 1).max().unwrap_or(0);
             let quality = |s: &Stage| {
                 let fd = final_field(s, &dirs);
                 let rule = CornerRule::new(&s.mesh, &s.index).with_chords(FINAL_CHORD_STEPS).with_field(fd.clone());
@@ -725,7 +724,7 @@ fn smooth(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> Result
 
 /// [`smooth`] without the warning (for the late repairs, where a failure only drops them).
 fn smooth_quiet(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> Result<(Stage, bool), LayoutError> {
-    let before = patches(&stage.mesh, &stage.seam);
+    let (_, n_before) = patch_labels(&stage.mesh, &stage.seam);
     let deg = network::seam_degree(&stage.mesh, &stage.seam);
     let mut nodes: VertexData<bool> =
         stage.mesh.vertices().map(|v| stage.singular[v] || (pins[v] && deg[v] > 0)).collect();
@@ -791,22 +790,22 @@ fn smooth_quiet(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> 
         let r = remeshed.expect("remeshed when nothing touches");
         let seam = seam_edges(&r.mesh, &r.paths);
         let after = patches(&r.mesh, &seam);
-        if after.n != before.n || (0..after.n).any(|i| !after.is_disk(i)) {
+        if after.n != n_before || (0..after.n).any(|i| !after.is_disk(i)) {
             break;
         }
         return Ok((stage.remeshed(&r, seam), true));
     }
-    tracing::debug!(patches = before.n, "straightened seams would change the patches");
+    tracing::debug!(patches = n_before, "straightened seams would change the patches");
     Ok((stage, false))
 }
 
-/// A patch angle below this many quarter turns is a cusp ([`State::zip_cusps`]).
+/// A patch angle below this many quarter turns is a cusp (`State::zip_cusps`).
 const CUSP_QUARTERS: f64 = 0.5;
 
-/// Cut positions tried along each side of a cusp ([`State::zip_cusps`]).
+/// Cut positions tried along each side of a cusp (`State::zip_cusps`).
 const ZIP_SAMPLES: usize = 12;
 
-/// Narrowest cut across a cusp's spike, in mean edge lengths ([`State::zip_cusps`]).
+/// Narrowest cut across a cusp's spike, in mean edge lengths (`State::zip_cusps`).
 const ZIP_MIN_WIDTH: f64 = 2.0;
 
 /// A patch angle of at least this many quarter turns is a concave corner.
@@ -959,7 +958,7 @@ struct State<'a> {
     hints: Option<HintMap>,
 }
 
-/// A cusp repair ([`State::zip_cusps`]): the spike's faces, the patch that receives them and
+/// A cusp repair (`State::zip_cusps`): the spike's faces, the patch that receives them and
 /// the cut edges.
 type Zip = (Vec<FaceId>, u32, BTreeSet<EdgeId>);
 

@@ -136,6 +136,7 @@ impl Mesh {
     /// Sum at each vertex of the given corner angles (those of [`Mesh::corner_angles`]), for
     /// callers that need both.
     pub fn angle_sums_of(&self, angles: &HalfedgeData<f64>) -> VertexData<f64> {
+        debug_assert_eq!(angles.len(), 3 * self.n_faces(), "one angle per corner of this mesh");
         let mut s = VertexData::filled(self.n_vertices(), 0.0);
         for (h, a) in angles.enumerate() {
             s[self.tail(h)] += a;

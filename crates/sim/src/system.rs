@@ -329,7 +329,7 @@ impl<'a> System<'a> {
     }
     /// The fill-reducing ordering of the free dofs the Newton solver factors with, chosen on
     /// the vertex graph (each vertex then expanded to its free dofs: cheaper than ordering
-    /// the dof pattern, and as good): AMD, or, on systems of at least [`ND_MIN_VERTICES`]
+    /// the dof pattern, and as good): AMD, or, on systems of at least `ND_MIN_VERTICES`
     /// vertices, nested dissection by the rest positions ([`clothcast_mesh::ordering`]) when
     /// its vertex-graph factor has fewer entries, or, when `split` allows a factorization split
     /// over two threads and the factor is large enough for it
