@@ -103,11 +103,40 @@ impl Patches {
     }
     /// Faces of every patch.
     pub fn faces(&self) -> Vec<Vec<FaceId>> {
-        let mut out = vec![Vec::new(); self.n];
-        for (f, &p) in self.patch_of_face.enumerate() {
-            out[p as usize].push(f);
+        faces_by_label(&self.patch_of_face, self.n)
+    }
+
+    /// The patches of a labelling (`0..infos.len()`) with each one's measure, in label order.
+    fn from_infos(patch_of_face: FaceData<u32>, infos: Vec<RegionInfo>) -> Patches {
+        let n = infos.len();
+        let mut out = Patches {
+            patch_of_face,
+            n,
+            euler: Vec::with_capacity(n),
+            loops: Vec::with_capacity(n),
+            area: Vec::with_capacity(n),
+            corners: Vec::with_capacity(n),
+            candidates: Vec::with_capacity(n),
+        };
+        for i in infos {
+            out.euler.push(i.euler);
+            out.loops.push(i.loops);
+            out.area.push(i.area);
+            out.corners.push(i.corners);
+            out.candidates.push(i.candidates);
         }
         out
+    }
+
+    /// The measure of patch `p`.
+    fn info(&self, p: usize) -> RegionInfo {
+        RegionInfo {
+            euler: self.euler[p],
+            loops: self.loops[p],
+            corners: self.corners[p].clone(),
+            area: self.area[p],
+            candidates: self.candidates[p].clone(),
+        }
     }
 
     /// The patches once the seams are `seam`, where these are `patches_with(mesh, old_seam,
@@ -214,34 +243,12 @@ impl Patches {
             }
         }
         let (label, cut) = (|f: FaceId| new[f], |e: EdgeId| seam[e]);
-        let mut out = Patches {
-            patch_of_face: FaceData::from_vec(Vec::new()),
-            n,
-            euler: Vec::with_capacity(n),
-            loops: Vec::with_capacity(n),
-            area: Vec::with_capacity(n),
-            corners: Vec::with_capacity(n),
-            candidates: Vec::with_capacity(n),
-        };
-        for q in 0..n {
-            if remeasure[q] {
-                let i = region_info(mesh, &faces[q], &label, &cut, rule);
-                out.euler.push(i.euler);
-                out.loops.push(i.loops);
-                out.area.push(i.area);
-                out.corners.push(i.corners);
-                out.candidates.push(i.candidates);
-            } else {
-                let p = was[q] as usize;
-                out.euler.push(self.euler[p]);
-                out.loops.push(self.loops[p]);
-                out.area.push(self.area[p]);
-                out.corners.push(self.corners[p].clone());
-                out.candidates.push(self.candidates[p].clone());
-            }
-        }
-        out.patch_of_face = new;
-        out
+        let infos = (0..n)
+            .map(|q| {
+                if remeasure[q] { region_info(mesh, &faces[q], &label, &cut, rule) } else { self.info(was[q] as usize) }
+            })
+            .collect();
+        Patches::from_infos(new, infos)
     }
 }
 
@@ -578,22 +585,20 @@ pub fn patches_from_labels(
     seam: &EdgeData<bool>,
     rule: &CornerRule,
 ) -> Patches {
+    let label = |f: FaceId| patch_of_face[f];
+    let cut = |e: EdgeId| seam[e];
+    let infos: Vec<RegionInfo> =
+        faces_by_label(&patch_of_face, n).iter().map(|fs| region_info(mesh, fs, &label, &cut, rule)).collect();
+    Patches::from_infos(patch_of_face, infos)
+}
+
+/// The faces carrying each of the labels `0..n`, ascending.
+pub fn faces_by_label(patch_of_face: &FaceData<u32>, n: usize) -> Vec<Vec<FaceId>> {
     let mut faces: Vec<Vec<FaceId>> = vec![Vec::new(); n];
     for (f, &p) in patch_of_face.enumerate() {
         faces[p as usize].push(f);
     }
-    let label = |f: FaceId| patch_of_face[f];
-    let cut = |e: EdgeId| seam[e];
-    let infos: Vec<RegionInfo> = faces.iter().map(|fs| region_info(mesh, fs, &label, &cut, rule)).collect();
-    Patches {
-        euler: infos.iter().map(|i| i.euler).collect(),
-        loops: infos.iter().map(|i| i.loops).collect(),
-        area: infos.iter().map(|i| i.area).collect(),
-        corners: infos.iter().map(|i| i.corners.clone()).collect(),
-        candidates: infos.into_iter().map(|i| i.candidates).collect(),
-        patch_of_face,
-        n,
-    }
+    faces
 }
 
 /// Seam edges from a list of vertex paths.

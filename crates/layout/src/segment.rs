@@ -56,7 +56,7 @@ use crate::developability::vertex_scores;
 use crate::flipout::{FlipOutOptions, straighten_network};
 use crate::network;
 use crate::patches::{
-    CornerRule, RegionInfo, edge_between, patch_labels, patches, patches_with, region_info, seam_edges,
+    CornerRule, RegionInfo, edge_between, faces_by_label, patch_labels, patches, patches_with, region_info, seam_edges,
 };
 use crate::remesh::{RemeshOptions, insert_polylines};
 use crate::split::{field_aligned_split, spectral_split, two_sides};
@@ -799,13 +799,13 @@ fn smooth_quiet(stage: Stage, pins: &VertexData<bool>, opts: &LayoutOptions) -> 
     Ok((stage, false))
 }
 
-/// A patch angle below this many quarter turns is a cusp (`State::zip_cusps`).
+/// A patch angle below this many quarter turns is a cusp ([`State::zip_cusps`]).
 const CUSP_QUARTERS: f64 = 0.5;
 
-/// Cut positions tried along each side of a cusp (`State::zip_cusps`).
+/// Cut positions tried along each side of a cusp ([`State::zip_cusps`]).
 const ZIP_SAMPLES: usize = 12;
 
-/// Narrowest cut across a cusp's spike, in mean edge lengths (`State::zip_cusps`).
+/// Narrowest cut across a cusp's spike, in mean edge lengths ([`State::zip_cusps`]).
 const ZIP_MIN_WIDTH: f64 = 2.0;
 
 /// A patch angle of at least this many quarter turns is a concave corner.
@@ -958,7 +958,7 @@ struct State<'a> {
     hints: Option<HintMap>,
 }
 
-/// A cusp repair (`State::zip_cusps`): the spike's faces, the patch that receives them and
+/// A cusp repair ([`State::zip_cusps`]): the spike's faces, the patch that receives them and
 /// the cut edges.
 type Zip = (Vec<FaceId>, u32, BTreeSet<EdgeId>);
 
@@ -983,10 +983,7 @@ impl<'a> State<'a> {
         chords: usize,
     ) -> Self {
         let (label, n) = patch_labels(mesh, seam);
-        let mut faces = vec![Vec::new(); n];
-        for (f, &p) in label.enumerate() {
-            faces[p as usize].push(f);
-        }
+        let faces = faces_by_label(&label, n);
         let vertex_areas = mesh.vertex_areas();
         let density =
             mesh.vertices().map(|v| if vertex_areas[v] > 0.0 { scores[v] / vertex_areas[v] } else { 0.0 }).collect();
