@@ -67,13 +67,10 @@ fn field_writes_raw_and_cross_fields() {
 #[test]
 fn curvature_source_and_config_errors() {
     let out = tmpdir("curv");
-    let cfg = write_config(&out, "c.toml", "[field]\nsource = \"curvature\"\n");
-    expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 0);
+    run_configured("field", &out, "[field]\nsource = \"curvature\"\n", &[], 0);
     assert_eq!(summary(&out)["field"]["source"], "curvature");
-    let cfg = write_config(&out, "c.toml", "[field]\nsource = \"stress\"\n");
-    let t = expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 2);
+    let t = run_configured("field", &out, "[field]\nsource = \"stress\"\n", &[], 2);
     assert_mentions(&t, "stress");
-    let cfg = write_config(&out, "c.toml", "[field]\nanisotropy_threshold = 1.5\n");
-    let t = expect_exit(&run_stage("field", &out, Some(&cfg), &[]), 2);
+    let t = run_configured("field", &out, "[field]\nanisotropy_threshold = 1.5\n", &[], 2);
     assert_mentions(&t, "field.anisotropy_threshold");
 }

@@ -273,7 +273,6 @@ fn flatten_command_and_determinism() {
 #[test]
 fn a_roll_too_narrow_is_an_input_error() {
     let out = tmpdir("narrow");
-    let cfg = write_config(&out, "narrow.toml", "[pattern]\nfabric_width_mm = 50.0\n");
-    let t = expect_exit(&run_stage("run", &out, Some(&cfg), &[]), 2);
+    let t = run_configured("run", &out, "[pattern]\nfabric_width_mm = 50.0\n", &[], 2);
     assert_mentions(&t, "fabric_width_mm");
 }

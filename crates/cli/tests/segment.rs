@@ -76,8 +76,7 @@ fn same_seed_same_outputs() {
 #[test]
 fn bad_layout_config_is_an_input_error() {
     let out = tmpdir("badcfg");
-    let cfg = write_config(&out, "bad.toml", "[layout]\nmax_deviation = 120.0\n");
-    let t = expect_exit(&run_stage("segment", &out, Some(&cfg), &[]), 2);
+    let t = run_configured("segment", &out, "[layout]\nmax_deviation = 120.0\n", &[], 2);
     assert_mentions(&t, "layout.max_deviation");
 }
 

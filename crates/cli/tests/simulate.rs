@@ -81,12 +81,12 @@ fn simulate_writes_deformed_mesh_and_summary() {
 #[test]
 fn non_convergence_is_an_error_unless_allowed() {
     let out = tmpdir("nonconv");
-    let cfg = write_config(&out, "c.toml", "[solver]\nmax_iterations = 2\n");
-    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 1);
+    let toml = "[solver]\nmax_iterations = 2\n";
+    let t = run_configured("simulate", &out, toml, &[], 1);
     assert_mentions(&t, "did not converge");
     assert_mentions(&t, "--allow-unconverged");
     assert!(!out.join("deformed.ply").exists());
-    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
+    run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);
     let s = summary(&out);
     assert_eq!(s["simulation"]["converged"], false);
     assert_eq!(s["simulation"]["termination"], "max_iterations");
@@ -97,13 +97,13 @@ fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     // The built-in example (0.5 m) filled to 0.1 m: the fabric above the liquid hangs slack or
     // wrinkled, and 15 iterations leave most of the residual there (it converges in 76).
     let out = tmpdir("nonconv-where");
-    let cfg = write_config(&out, "c.toml", "[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 15\n");
-    let msg = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 1);
+    let toml = "[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 15\n";
+    let msg = run_configured("simulate", &out, toml, &[], 1);
     assert_mentions(&msg, "the largest unbalanced force");
     assert_mentions(&msg, "above the fill level");
     assert_mentions(&msg, "below the level the relative residual");
     assert_mentions(&msg, "head_pressure");
-    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
+    run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);
     let sim = &summary(&out)["simulation"];
     let site = &sim["largest_residual"];
     let n_vertices = clothcast_mesh::shapes::rounded_tetrahedron(0.5).n_vertices() as u64;
@@ -153,8 +153,7 @@ fn scenario_errors_exit_2() {
     expect_exit(&run_stage("simulate", &out, None, &[cfg.to_str().unwrap()]), 0);
     assert_eq!(summary(&out)["simulation"]["converged"], true);
     // Suspension vertex that does not exist.
-    let cfg = write_config(&out, "bowl.toml", "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n");
-    let t = expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 2);
+    let t = run_configured("simulate", &out, "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n", &[], 2);
     assert_mentions(&t, "99999");
 }
 
@@ -163,17 +162,12 @@ fn supports_and_explicit_vertices() {
     let out = tmpdir("sup");
     // A floor 2 mm below the example's tip (its tip rises: no contact, but the support is
     // parsed, checked and reported), then six explicit clamped vertices with a partial fill.
-    let cfg = write_config(&out, "c.toml", "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n");
-    expect_exit(&run_stage("simulate", &out, Some(&cfg), &[]), 0);
+    run_configured("simulate", &out, "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n", &[], 0);
     let s = summary(&out);
     assert_eq!(s["simulation"]["support_forces_n"].as_array().unwrap().len(), 1);
     assert_eq!(s["scenario"]["supports"][0]["normal"], serde_json::json!([0.0, 0.0, 1.0]));
-    let cfg = write_config(
-        &out,
-        "c.toml",
-        "[suspension]\nmode = \"vertices\"\nvertices = [0, 1, 2, 3, 4, 5]\n[infill]\nfill_level = 0.3\n",
-    );
-    expect_exit(&run_stage("simulate", &out, Some(&cfg), &["--allow-unconverged"]), 0);
+    let toml = "[suspension]\nmode = \"vertices\"\nvertices = [0, 1, 2, 3, 4, 5]\n[infill]\nfill_level = 0.3\n";
+    run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);
     assert_eq!(summary(&out)["simulation"]["fixed_vertices"], 6);
 }
 

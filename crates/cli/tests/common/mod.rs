@@ -68,6 +68,13 @@ pub fn write_config(dir: &Path, name: &str, toml: &str) -> PathBuf {
     path
 }
 
+/// Write `toml` as `out/c.toml` and run `clothcast STAGE -q -c out/c.toml EXTRA... -o out`,
+/// asserting exit `code`; returns its output.
+pub fn run_configured(stage: &str, out: &Path, toml: &str, extra: &[&str], code: i32) -> String {
+    let cfg = write_config(out, "c.toml", toml);
+    expect_exit(&run_stage(stage, out, Some(&cfg), extra), code)
+}
+
 /// `summary.json` of an output directory.
 pub fn summary(dir: &Path) -> Value {
     serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
