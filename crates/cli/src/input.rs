@@ -55,10 +55,15 @@ impl Input {
     /// added has none: it is numbered after the input file's vertices, in the order added
     /// (its own number when a repair neither removed nor added vertices).
     pub fn input_vertex(&self, v: VertexId) -> VertexId {
-        match self.vertex_to_input.get(v.idx()) {
-            Some(&i) => VertexId::new(i as usize),
-            None => VertexId::new(self.input_vertices + (v.idx() - self.vertex_to_input.len())),
-        }
+        VertexId::new(input_vertex(&self.vertex_to_input, self.input_vertices, v.idx()))
+    }
+}
+
+/// [`Input::input_vertex`] on its maps (also before the `Input` is built).
+fn input_vertex(vertex_to_input: &[u32], input_vertices: usize, v: usize) -> usize {
+    match vertex_to_input.get(v) {
+        Some(&i) => i as usize,
+        None => input_vertices + (v - vertex_to_input.len()),
     }
 }
 
@@ -161,7 +166,7 @@ pub fn load(cfg: &Config, repair: &RepairOptions) -> Result<Input, Failure> {
         let p = mesh.positions().map(|x| x * to_metres);
         if let Some(v) = p.iter().position(|x| !x.iter().all(|c| c.is_finite())) {
             // Named in the input file's numbering, as every error is.
-            let v = prepared.vertex_to_input.get(v).map_or(v, |&i| i as usize);
+            let v = input_vertex(&prepared.vertex_to_input, input_vertices, v);
             return Err(Failure::Input(anyhow!(
                 "{label}: vertex {v} is not finite once scaled by {to_metres:e} to metres (mesh.height or mesh.units)"
             )));

@@ -578,15 +578,15 @@ pub enum OutlineRepair {
     },
 }
 
-/// Flattens one disk-shaped piece by BFF ([`bff_flatten`](crate::bff::bff_flatten)). Flipped triangles: retried with a
-/// stronger cotangent floor, then untangled. Flipped triangles, or a flattening over `limits`:
-/// flattened again on the intrinsic Delaunay triangulation, kept if less distorted. An outline
-/// that crosses itself, which cannot be cut (BFF lays the boundary out from its curvature, and
-/// where a patch nearly pinches, e.g. three sharp corners in a row, the curve can loop over
-/// itself with every triangle positive): flattened again with the looping stretch's turning
-/// reduced ([`BffOptions::boundary_relief`], the least fraction that makes the outline simple
-/// without more flipped triangles), or failing that with the whole boundary curvature smoothed
-/// ([`BffOptions::boundary_smoothing`]). The curve is closed by turning
+/// Flattens one disk-shaped piece by BFF ([`bff_flatten`](crate::bff::bff_flatten)). Flipped
+/// triangles: retried with a stronger cotangent floor, then untangled. Flipped triangles, or a
+/// flattening over `limits`: flattened again on the intrinsic Delaunay triangulation, kept if
+/// less distorted. An outline that crosses itself, which cannot be cut (BFF lays the boundary
+/// out from its curvature, and where a patch nearly pinches, e.g. three sharp corners in a
+/// row, the curve can loop over itself with every triangle positive): flattened again with the
+/// looping stretch's turning reduced ([`BffOptions::boundary_relief`], the least fraction that
+/// makes the outline simple without more flipped triangles), or failing that with the whole
+/// boundary curvature smoothed ([`BffOptions::boundary_smoothing`]). The curve is closed by turning
 /// ([`BffOptions::exact_lengths`]), so the boundary lengths are kept and the seams still match
 /// (should that closing fail, the best-fit curve changes them by up to a few percent near the
 /// loop); the triangles along the loop take the distortion.

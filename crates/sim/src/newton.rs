@@ -177,7 +177,7 @@ impl DampingMatrix {
         self.add(&mut dense, 1.0);
         let mut y = vec![0.0; d.len()];
         pattern.mul_vec(&dense, d, &mut y);
-        y.iter().zip(d).map(|(a, b)| a * b).sum()
+        dot(&y, d)
     }
 }
 
