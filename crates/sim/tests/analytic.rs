@@ -367,13 +367,14 @@ fn documented_errors() {
     assert!(matches!(simulate(&m, &mat, &sc, &mut |_| {}), Err(SimError::NoSuchVertex { .. })));
 }
 
-/// The default scenario on `mesh` (the default fabric), its step solves in precision `p`;
-/// asserts that it converges.
-fn solve_with_precision(mesh: &Mesh, p: clothcast_sim::newton::FactorPrecision) -> SimResult {
+/// The default scenario on `mesh` (the default fabric) solved with `newton`; asserts that it
+/// converges.
+fn solve_with(mesh: &Mesh, newton: NewtonOptions) -> SimResult {
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let sc = Scenario { newton: NewtonOptions { factor_precision: p, ..Default::default() }, ..Default::default() };
+    let what = format!("{:?} / {:?}", newton.factor_precision, newton.damping);
+    let sc = Scenario { newton, ..Default::default() };
     let r = simulate(mesh, &mat, &sc, &mut |_| {}).unwrap();
-    assert!(r.stats.converged, "{p:?}: {:?}", r.stats.termination);
+    assert!(r.stats.converged, "{what}: {:?}", r.stats.termination);
     r
 }
 
@@ -384,7 +385,7 @@ fn solve_with_precision(mesh: &Mesh, p: clothcast_sim::newton::FactorPrecision) 
 fn single_precision_factor_follows_the_double_precision_path() {
     use clothcast_sim::newton::FactorPrecision;
     let mesh = shapes::icosphere(4, 0.25);
-    let run = |p| solve_with_precision(&mesh, p);
+    let run = |factor_precision| solve_with(&mesh, NewtonOptions { factor_precision, ..Default::default() });
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     assert!(!d.stats.solver.single_precision && s.stats.solver.single_precision);
     assert!(s.stats.solver.pcg_iterations >= s.stats.solver.factorizations, "every step is iterated");
@@ -408,10 +409,8 @@ fn laplacian_and_diagonal_damping_reach_the_same_equilibrium() {
     use clothcast_sim::newton::Damping;
     let mesh = shapes::rounded_tetrahedron(0.5);
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let run = |damping: Damping| {
-        let sc = Scenario { newton: NewtonOptions { damping, ..Default::default() }, ..Default::default() };
-        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
-        assert!(r.stats.converged, "{damping:?}: {:?}", r.stats.termination);
+    let run = |damping| {
+        let r = solve_with(&mesh, NewtonOptions { damping, ..Default::default() });
         common::assert_energy_never_rises(&r.history);
         r
     };
@@ -471,7 +470,7 @@ fn indefinite_steps_return_to_single_precision() {
     let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
     let scale = 0.5 / mesh.bbox().extent().z;
     mesh.set_positions(mesh.positions().map(|x| x * scale));
-    let run = |p| solve_with_precision(&mesh, p);
+    let run = |factor_precision| solve_with(&mesh, NewtonOptions { factor_precision, ..Default::default() });
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     let st = &s.stats.solver;
     assert!(st.single_fallbacks_indefinite > 0, "{st:?}");
