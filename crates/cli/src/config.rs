@@ -60,6 +60,9 @@ pub struct PatternSection {
     /// "field" (warp/weft aligned with the cross field) or "longest-side" (the paper's
     /// heuristics).
     pub orientation: clothcast_flatten::Orientation,
+    /// Which fibre runs along the field's major direction: "major" (the warp), "minor" (the
+    /// weft) or "either" (whichever the orientation's turn gives).
+    pub warp_along: clothcast_flatten::WarpAlong,
     /// Scale all pieces by one common factor so their total area equals the target's.
     pub match_area: bool,
     /// Sew line to cut line (mm).
@@ -95,6 +98,7 @@ impl Default for PatternSection {
         let p = clothcast_pattern::PatternOptions::default();
         Self {
             orientation: clothcast_flatten::FlattenOptions::default().orientation,
+            warp_along: clothcast_flatten::FlattenOptions::default().warp_along,
             match_area: clothcast_flatten::FlattenOptions::default().match_area,
             seam_allowance_mm: p.seam_allowance_mm,
             notch_spacing_mm: p.notch_spacing_mm,

@@ -55,6 +55,8 @@ fn check_run(out: &Path) -> Value {
             "seam_length_mismatch_max_rel",
             "fiber_alignment_median_deg",
             "orientation",
+            "warp_along",
+            "major_on_warp_share",
             "outlines_repaired",
             "outlines_not_simple",
             "distorted_pieces",
@@ -81,6 +83,7 @@ fn check_run(out: &Path) -> Value {
     );
     assert_eq!(fl["flipped_triangles"], 0);
     assert_eq!(fl["orientation"], "field");
+    assert_eq!(fl["warp_along"], "major");
     assert!(fl["qc_mean"].as_f64().unwrap() <= 1.05);
     let limit = if fl["repaired_vertices"].as_u64().unwrap() > 0 { 0.005 } else { 1e-9 };
     assert!(fl["seam_length_mismatch_max_rel"].as_f64().unwrap() <= limit, "{fl}");
@@ -275,4 +278,32 @@ fn a_roll_too_narrow_is_an_input_error() {
     let out = tmpdir("narrow");
     let t = run_configured("run", &out, "[pattern]\nfabric_width_mm = 50.0\n", &[], 2);
     assert_mentions(&t, "fabric_width_mm");
+}
+
+/// `[pattern] warp_along` decides which yarn runs along the mold's largest stretch on every
+/// piece. On the cylinder (hoop stretch about twice the axial) the warp follows it on most of
+/// the weight with "major", the weft with "minor"; "either" keeps the orientation rule's own
+/// quarter turns, which mix the two. A value that is none of these is an input error.
+#[test]
+fn warp_along_puts_the_chosen_yarn_on_the_largest_stretch() {
+    let share = |rule: &str| {
+        let out = tmpdir(&format!("warp_{rule}"));
+        let toml = format!("[pattern]\nwarp_along = \"{rule}\"\n");
+        let cyl = data("closed/cylinder.obj");
+        run_configured("run", &out, &toml, &[cyl.to_str().unwrap(), "--height", "1"], 0);
+        let fl = summary(&out)["flattening"].clone();
+        assert_eq!(fl["warp_along"], rule);
+        for q in fl["per_piece"].as_array().unwrap() {
+            let s = q["major_on_warp_share"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&s), "{q}");
+        }
+        fl["major_on_warp_share"].as_f64().unwrap()
+    };
+    let (major, minor, either) = (share("major"), share("minor"), share("either"));
+    assert!(major > 0.8, "{major}");
+    assert!(minor < 0.2, "{minor}");
+    assert!(either > minor && either < major, "{either}");
+    let out = tmpdir("warp_bad");
+    let t = run_configured("run", &out, "[pattern]\nwarp_along = \"bias\"\n", &[], 2);
+    assert_mentions(&t, "warp_along");
 }

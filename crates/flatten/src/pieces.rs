@@ -30,6 +30,15 @@
 //!   fibre axis; otherwise the angles of all sides to their nearest axis are minimised (the same
 //!   4-fold closed form over the side chords, weighted by length).
 //!
+//!
+//! Either rule fixes the turn up to a quarter turn, warp and weft being both fibres. Which of
+//! the two runs along the field's major direction (the largest principal stretch of the
+//! simulated mold) is decided after it ([`WarpAlong`], the paper's "which principal stretch
+//! goes on warp"): by default the warp, so that every piece of a mold carries its largest
+//! stretch on the same yarn (the stiffer one, when the user sets the rule by the fabric). The quarter turn is the one with `Σ w_f cos 2(θ_f + φ) > 0` over the major directions
+//! θ_f mapped into the piece (same weights); `major_on_warp_share` reports the weight nearer
+//! the warp than the weft.
+//!
 //! **Fibre alignment** of a piece: the area-weighted median over its faces of the angle between
 //! the field's direction there and the nearest fibre (warp or weft).
 //!
@@ -59,11 +68,32 @@ pub enum Orientation {
     LongestSide,
 }
 
+/// Which fibre the field's major direction (the largest principal stretch of the simulated
+/// mold, or the largest principal curvature with the curvature field) runs along. Either
+/// orientation rule fixes a piece's turn only up to a quarter turn (warp and weft are both
+/// fibres); this decides the quarter turn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WarpAlong {
+    /// The warp along the major direction (the default): set it, or `Minor`, by the fabric's
+    /// stiffer yarn, which carries the largest stretch best (which yarn that is depends on the
+    /// fabric: of the five woven fabrics measured by Wang et al. 2011, three are stiffer
+    /// along one yarn, by 1.6–5 times, and two about alike).
+    Major,
+    /// The weft along the major direction.
+    Minor,
+    /// Whichever the orientation rule's turn gives (a piece's turn in (−45°, 45°]): warp and
+    /// weft behave alike.
+    Either,
+}
+
 /// Options of the flattening stage.
 #[derive(Clone, Debug)]
 pub struct FlattenOptions {
     /// Orientation rule.
     pub orientation: Orientation,
+    /// Which fibre runs along the field's major direction.
+    pub warp_along: WarpAlong,
     /// Scale all pieces by one common factor so that their total area equals the target's (see
     /// the module documentation).
     pub match_area: bool,
@@ -77,6 +107,7 @@ impl Default for FlattenOptions {
     fn default() -> Self {
         Self {
             orientation: Orientation::Field,
+            warp_along: WarpAlong::Major,
             match_area: true,
             bff: BffOptions::default(),
             limits: DistortionLimits::default(),
@@ -105,6 +136,8 @@ pub struct FlatPatch {
     pub stats: FlatteningStats,
     /// Area-weighted median angle between the field and the nearest fibre (degrees).
     pub fiber_deviation_median_deg: f64,
+    /// Share of the field's major direction nearer the warp than the weft ([`FlattenReport`]).
+    pub major_on_warp_share: f64,
 }
 
 /// One side of a seam on a piece: a run of its outline.
@@ -143,6 +176,13 @@ pub struct FlattenReport {
     pub fiber_alignment_other_rule_deg: f64,
     /// Orientation rule used.
     pub orientation: Option<Orientation>,
+    /// Which fibre was put along the field's major direction.
+    pub warp_along: Option<WarpAlong>,
+    /// Share of the field's major direction (weighted by area × (anisotropy + 0.05), the
+    /// orientation's weights) lying nearer the warp than the weft, over all pieces: near 1
+    /// with `warp_along = "major"`, near 0 with `"minor"`; with `"either"`, what the turns
+    /// happened to give. 0.5 when the field gives no major direction.
+    pub major_on_warp_share: f64,
     /// Per piece: area ratio, quasi-conformal ratio, flips and fibre alignment (patch order).
     pub per_piece: Vec<PieceReport>,
     /// Pieces re-flattened because the first flattening had flipped triangles.
@@ -218,6 +258,8 @@ pub struct PieceReport {
     pub flipped_triangles: usize,
     /// Area-weighted median angle between the field and the nearest fibre (degrees).
     pub fiber_alignment_median_deg: f64,
+    /// Share of the field's major direction nearer the warp than the weft.
+    pub major_on_warp_share: f64,
 }
 
 /// Everything the stage produces.
@@ -232,10 +274,13 @@ pub struct FlatPieces {
 }
 
 /// Flatten and orient every patch. `anisotropy[f]` (segmented-mesh faces, in [0, 1]) weights
-/// the field orientation.
+/// the field orientation; `major[f]` is the field's major direction on each face (a 3D vector
+/// in the face's plane, either sign; zero where there is none), which decides which fibre runs
+/// along it ([`WarpAlong`]).
 pub fn flatten_segmentation(
     seg: &Segmentation,
     anisotropy: &FaceData<f64>,
+    major: &FaceData<Vec3>,
     opts: &FlattenOptions,
 ) -> Result<FlatPieces, FlattenError> {
     let start = Instant::now();
@@ -262,12 +307,15 @@ pub fn flatten_segmentation(
             seam_edge.insert((w[0], w[1]), i);
         }
     }
-    let mut report = FlattenReport { orientation: Some(opts.orientation), ..Default::default() };
+    let mut report =
+        FlattenReport { orientation: Some(opts.orientation), warp_along: Some(opts.warp_along), ..Default::default() };
     let mut patches = Vec::with_capacity(n);
     let mut runs = Vec::with_capacity(n);
     // (fibre angle, area) of every face with the chosen rule and with the other one.
     let mut all_main: Vec<(f64, f64)> = Vec::new();
     let mut all_other: Vec<(f64, f64)> = Vec::new();
+    // Weight of the major direction nearer the warp than the weft, and in all.
+    let mut all_majors = (0.0, 0.0);
     for (p, fs) in faces.iter().enumerate() {
         let sub =
             extract_submesh(&cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
@@ -315,6 +363,20 @@ pub fn flatten_segmentation(
             Orientation::Field => (phi_field, phi_sides),
             Orientation::LongestSide => (phi_sides, phi_field),
         };
+        // The major direction mapped into the piece's plane, with the same weights; the
+        // quarter turn that puts it on the chosen fibre.
+        let majors: Vec<(f64, f64)> = pm
+            .face_ids()
+            .zip(&mapped)
+            .filter(|&(f, _)| major[seg_face[f]].norm_squared() > 0.0)
+            .map(|(f, &(_, _, w))| (map_direction(&pm, &flat.uv, f, &major[seg_face[f]]), w))
+            .collect();
+        let phi = phi + quarter_turn(&majors, phi, opts.warp_along);
+        let (on_warp, weight) = majors
+            .iter()
+            .fold((0.0, 0.0), |(a, b), &(t, w)| (if (2.0 * (t + phi)).cos() > 0.0 { a + w } else { a }, b + w));
+        all_majors.0 += on_warp;
+        all_majors.1 += weight;
         let centroid = {
             let (mut c, mut a) = (Vec2::zeros(), 0.0);
             for f in pm.face_ids() {
@@ -343,6 +405,7 @@ pub fn flatten_segmentation(
             outline,
             stats,
             fiber_deviation_median_deg: dev,
+            major_on_warp_share: share(on_warp, weight),
         });
     }
     // Totals.
@@ -379,10 +442,12 @@ pub fn flatten_segmentation(
             qc_max: q.stats.qc_max,
             flipped_triangles: q.stats.flipped_triangles,
             fiber_alignment_median_deg: q.fiber_deviation_median_deg,
+            major_on_warp_share: q.major_on_warp_share,
         })
         .collect();
     report.distorted_pieces = patches.iter().filter(|q| opts.limits.exceeded_by(&q.stats)).map(|q| q.patch).collect();
     report.fiber_alignment_other_rule_deg = weighted_median(all_other);
+    report.major_on_warp_share = share(all_majors.0, all_majors.1);
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
     report.seconds = start.elapsed().as_secs_f64();
     Ok(FlatPieces { patches, runs, report })
@@ -420,6 +485,24 @@ fn four_fold_rotation(samples: impl Iterator<Item = (f64, f64)>) -> f64 {
         im += w * (4.0 * theta).sin();
     }
     if re == 0.0 && im == 0.0 { 0.0 } else { -im.atan2(re) / 4.0 }
+}
+
+/// The quarter turn (0 or π/2) to add to a piece's turn `phi` so that the major directions
+/// `majors` (angle in the piece's plane, weight) lie, on the whole, along the fibre `rule`
+/// asks for: the warp (+x) when `Σ w cos 2(θ + φ) > 0`. Ties keep `phi`.
+fn quarter_turn(majors: &[(f64, f64)], phi: f64, rule: WarpAlong) -> f64 {
+    let along_warp: f64 = majors.iter().map(|&(t, w)| w * (2.0 * (t + phi)).cos()).sum();
+    let turn = match rule {
+        WarpAlong::Major => along_warp < 0.0,
+        WarpAlong::Minor => along_warp > 0.0,
+        WarpAlong::Either => false,
+    };
+    if turn { FRAC_PI_2 } else { 0.0 }
+}
+
+/// `part / whole`, 0.5 when the whole is nothing.
+fn share(part: f64, whole: f64) -> f64 {
+    if whole > 0.0 { part / whole } else { 0.5 }
 }
 
 fn field_rotation(mapped: &[(f64, f64, f64)]) -> f64 {

@@ -4,7 +4,7 @@
 use clothcast_field::cross::connection;
 use clothcast_field::synthesis::FieldSource;
 use clothcast_field::{CrossField, FieldOptions, compute_field};
-use clothcast_flatten::{FlattenOptions, Orientation, flatten_segmentation};
+use clothcast_flatten::{FlattenOptions, Orientation, WarpAlong, flatten_segmentation};
 use clothcast_layout::{LayoutOptions, Segmentation, segment};
 use clothcast_mesh::io::read_mesh_file;
 use clothcast_mesh::{FaceData, Mesh, Vec3, shapes};
@@ -31,7 +31,7 @@ fn every_patch_flattens_without_flips_and_seams_match() {
     ] {
         let seg = segmented(&m);
         let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
-        let flat = flatten_segmentation(&seg, &ones, &FlattenOptions::default()).unwrap();
+        let flat = flatten_segmentation(&seg, &ones, &seg.field_directions, &FlattenOptions::default()).unwrap();
         let r = &flat.report;
         eprintln!(
             "{name}: {} pieces, flips {}, bff area {:.4} scale {:.4}, qc {:.4}/{:.3}, mismatch {:.3}%, fibre {:.1}° (other {:.1}°)",
@@ -86,7 +86,9 @@ fn without_area_matching_boundary_lengths_are_kept() {
     let m = shapes::rounded_tetrahedron(0.5);
     let seg = segmented(&m);
     let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
-    let flat = flatten_segmentation(&seg, &ones, &FlattenOptions { match_area: false, ..Default::default() }).unwrap();
+    let none = FaceData::filled(seg.mesh.n_faces(), Vec3::zeros());
+    let flat =
+        flatten_segmentation(&seg, &ones, &none, &FlattenOptions { match_area: false, ..Default::default() }).unwrap();
     assert_eq!(flat.report.area_scale, 1.0);
     assert!(flat.report.area_ratio_bff < 1.0, "a closed convex target flattens smaller");
     for p in &flat.patches {
@@ -111,11 +113,13 @@ fn orientation_rules() {
     let seg = segment(&m, &field, &[], &LayoutOptions::default()).unwrap();
     assert_eq!(seg.patches.len(), 1);
     let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
-    let by_field = flatten_segmentation(&seg, &ones, &FlattenOptions::default()).unwrap();
+    let major = &seg.field_directions;
+    let by_field = flatten_segmentation(&seg, &ones, major, &FlattenOptions::default()).unwrap();
     assert!(by_field.report.fiber_alignment_median_deg < 1e-6, "{}", by_field.report.fiber_alignment_median_deg);
     let by_side = flatten_segmentation(
         &seg,
         &ones,
+        major,
         &FlattenOptions { orientation: Orientation::LongestSide, ..Default::default() },
     )
     .unwrap();
@@ -130,6 +134,59 @@ fn orientation_rules() {
     let ext = hi - lo;
     assert!((ext.x.max(ext.y) - 4.0).abs() < 1e-6 && (ext.x.min(ext.y) - 1.0).abs() < 1e-6, "extent {ext}");
     assert!((by_side.report.fiber_alignment_median_deg - 30.0).abs() < 1e-6);
+}
+
+/// Which fibre runs along the major direction: on a flat strip with a constant cross field at
+/// 30°, whose major direction is the arm at 120°, the warp follows that arm with "major" (a
+/// quarter turn more than the orientation rule alone gives), the weft with "minor"; "either"
+/// keeps the rule's turn, which here puts the 30° arm on the warp. Without a major direction
+/// the share is 0.5 and the turn is the rule's.
+#[test]
+fn warp_runs_along_the_major_direction() {
+    let m = shapes::grid(40, 10, 4.0, 1.0);
+    let rho = connection(&m);
+    let (a, b) = (30f64.to_radians(), 120f64.to_radians());
+    let world = Vec3::new(a.cos(), a.sin(), 0.0);
+    let theta: FaceData<f64> = m.face_ids().map(|f| m.face_frame(f).angle_of(&world)).collect();
+    let field = CrossField::from_angles(&m, &rho, theta);
+    let seg = segment(&m, &field, &[], &LayoutOptions::default()).unwrap();
+    let n = seg.mesh.n_faces();
+    let ones = FaceData::filled(n, 1.0);
+    // Either sign of the direction means the same.
+    let major: FaceData<Vec3> =
+        (0..n).map(|i| Vec3::new(b.cos(), b.sin(), 0.0) * if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+    let run = |rule: WarpAlong, major: &FaceData<Vec3>| {
+        let flat = flatten_segmentation(&seg, &ones, major, &FlattenOptions { warp_along: rule, ..Default::default() })
+            .unwrap();
+        assert!(flat.report.fiber_alignment_median_deg < 1e-6, "the fibres follow the field");
+        assert_eq!(flat.report.warp_along, Some(rule));
+        let p = &flat.patches[0];
+        // The grid's x axis in the piece: from its lowest-left vertex to the farthest one on
+        // the same row (the flat strip flattens isometrically, up to the common scale).
+        let at = |v: clothcast_mesh::VertexId| p.mesh.position(v);
+        let v0 = p.mesh.vertices().min_by(|&u, &w| (at(u).y, at(u).x).partial_cmp(&(at(w).y, at(w).x)).unwrap());
+        let v0 = v0.unwrap();
+        let v1 = p.mesh.vertices().filter(|&v| (at(v).y - at(v0).y).abs() < 1e-12);
+        let v1 = v1.max_by(|&u, &w| at(u).x.total_cmp(&at(w).x)).unwrap();
+        let x_axis = (p.uv[v1] - p.uv[v0]).normalize();
+        let turn = x_axis.y.atan2(x_axis.x);
+        let on_piece = (turn + b).cos().abs();
+        (flat.report.major_on_warp_share, p.rotation, on_piece)
+    };
+    let (share, rot_major, cos_major) = run(WarpAlong::Major, &major);
+    assert!((share - 1.0).abs() < 1e-12, "{share}");
+    assert!((cos_major - 1.0).abs() < 1e-6, "the major direction on the warp: |cos| {cos_major}");
+    let (share, rot_minor, cos_minor) = run(WarpAlong::Minor, &major);
+    assert!(share.abs() < 1e-12, "{share}");
+    assert!(cos_minor < 1e-3, "the major direction on the weft: |cos| {cos_minor}");
+    let (share, rot_either, _) = run(WarpAlong::Either, &major);
+    assert_eq!(share, 0.0, "the rule's own turn puts the 30° arm on the warp");
+    assert_eq!(rot_either, rot_minor);
+    assert!(((rot_major - rot_either).abs() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    // No major direction anywhere: the rule's turn, share 0.5.
+    let none = FaceData::filled(n, Vec3::zeros());
+    let (share, rot, _) = run(WarpAlong::Major, &none);
+    assert_eq!((share, rot), (0.5, rot_either));
 }
 
 /// A patch whose BFF outline loops over itself (one piece of the built-in segmentation of

@@ -7,7 +7,7 @@ use crate::input::Input;
 use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
-use clothcast_flatten::{DistortionLimits, FlatPieces, FlattenOptions, flatten_segmentation};
+use clothcast_flatten::{DistortionLimits, FlatPieces, FlattenOptions, WarpAlong, flatten_segmentation};
 use clothcast_layout::Segmentation;
 use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
 use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
@@ -98,6 +98,11 @@ impl std::fmt::Display for TooWide {
 
 impl std::error::Error for TooWide {}
 
+/// A setting's value as the configuration spells it (serde's kebab-case).
+fn config_name(value: impl Serialize) -> String {
+    serde_json::to_value(value).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+}
+
 /// Flatten, orient, build the patterns.
 pub fn run(
     cfg: &Config,
@@ -109,17 +114,21 @@ pub fn run(
     let t0 = Instant::now();
     let stage = progress.stage("flattening the patches");
     let anisotropy: FaceData<f64> = seg.face_parent.map(|&f| field.raw.anisotropy[f]);
+    // The raw field's major direction (the largest principal stretch) of each target face, in
+    // 3D: a segmented face lies in the plane of the target face it came from.
+    let major: FaceData<Vec3> = seg.face_parent.map(|&f| input.mesh.face_frame(f).direction(field.raw.angle[f]));
     let opts = FlattenOptions {
         orientation: cfg.pattern.orientation,
+        warp_along: cfg.pattern.warp_along,
         match_area: cfg.pattern.match_area,
         limits: DistortionLimits { qc_mean: cfg.pattern.max_qc_mean, area_spread: cfg.pattern.max_area_spread },
         ..Default::default()
     };
-    let flat = flatten_segmentation(seg, &anisotropy, &opts).internal()?;
+    let flat = flatten_segmentation(seg, &anisotropy, &major, &opts).internal()?;
     drop(stage);
     let r = &flat.report;
     progress.say(format!(
-        "flattening: {} pieces, {} flipped triangles, area {:.1}% of the target before scaling by {:.4}, area ratio {:.3}–{:.3}, qc mean {:.4} max {:.3}, seam length mismatch {:.2}%, fibre alignment median {:.1}° (orientation \"{}\"; the other rule: {:.1}°), {:.2} s",
+        "flattening: {} pieces, {} flipped triangles, area {:.1}% of the target before scaling by {:.4}, area ratio {:.3}–{:.3}, qc mean {:.4} max {:.3}, seam length mismatch {:.2}%, fibre alignment median {:.1}° (orientation \"{}\"; the other rule: {:.1}°), major stretch nearer the warp on {:.0}% (warp_along \"{}\"), {:.2} s",
         flat.patches.len(),
         r.flipped_triangles,
         100.0 * r.area_ratio_bff,
@@ -130,9 +139,10 @@ pub fn run(
         r.qc_max,
         100.0 * r.seam_length_mismatch_max_rel,
         r.fiber_alignment_median_deg,
-        // The name as in the configuration (serde's kebab-case).
-        serde_json::to_value(cfg.pattern.orientation).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default(),
+        config_name(cfg.pattern.orientation),
         r.fiber_alignment_other_rule_deg,
+        100.0 * r.major_on_warp_share,
+        config_name(cfg.pattern.warp_along),
         r.seconds
     ));
 
@@ -187,6 +197,15 @@ pub fn run(
         }
     })?;
     drop(stage);
+    let turned = pattern.pieces.iter().filter(|p| p.placement.rotation_deg % 180 == 90).count();
+    if turned > 0 && cfg.pattern.warp_along != WarpAlong::Either {
+        tracing::warn!(
+            "{turned} of {} pieces lie turned by a quarter on the roll (allow_weft_swap = true), their warp and weft \
+             exchanged: [pattern] warp_along = \"{}\" holds on the others only",
+            pattern.pieces.len(),
+            config_name(cfg.pattern.warp_along)
+        );
+    }
     let summary = PatternsSummary {
         pieces: pattern.pieces.len(),
         seams: pattern.stats.seams,
