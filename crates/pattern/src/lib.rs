@@ -33,7 +33,9 @@
 //! - Coordinates: millimetres, y up. On the roll, x runs along the roll (the warp, the long
 //!   direction, growing from 0) and y across it, in `[0, fabric_width_mm]`.
 //! - Cut line: mitred corners; a miter longer than [`MITER_LIMIT`]` · allowance` is clipped
-//!   perpendicular to the bisector (not bevelled, which would eat into the allowance).
+//!   perpendicular to the bisector (not bevelled, which would eat into the allowance); dents
+//!   closed by a disc of [`DENT_RADIUS`] allowances ([`cut_line`]), the fabric added kept
+//!   within [`MITER_LIMIT`]` · allowance` of the sew line.
 //! - Notches: at both ends of every seam and every `notch_spacing_mm` along the seam's own
 //!   direction, at the same normalised arc length on both sides; drawn as a slit of
 //!   `notch_length_mm` from the cut line inwards.
@@ -84,7 +86,7 @@ pub mod validate;
 pub use error::PatternError;
 pub use geom::P2;
 pub use input::{MarkKind, PatternOptions, PieceInput, PointMark, SeamSide};
-pub use offset::{MITER_LIMIT, offset_polygon};
+pub use offset::{DENT_RADIUS, MITER_LIMIT, cut_line, offset_polygon};
 pub use output::{DxfWriter, PatternWriter, PdfMode, PdfWriter, SvgWriter, all_writers};
 pub use pattern::{GrainArrow, Notch, Pattern, PatternStats, Piece, Placement, Text, build_pattern};
 pub use seams::seam_length_mismatch;

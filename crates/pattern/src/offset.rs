@@ -34,9 +34,18 @@
 //! not).
 //!
 //! Complexity: O(n log n) for n outline points (at most 2n + 1 input contours to the sweep).
+//!
+//! The pieces' cut lines are [`cut_line`]: this offset with the small dents a zigzagging
+//! seam leaves in it closed (a morphological closing by a large disc, with i_overlay's round
+//! outline offsets and boolean operations, bounded by the miter limit); about five times the
+//! exact offset's time (kitten's 50 pieces: 0.32 → 0.65 s for the whole pattern stage).
 
 use i_overlay::core::fill_rule::FillRule;
+use i_overlay::core::overlay_rule::OverlayRule;
 use i_overlay::float::simplify::SimplifyShape;
+use i_overlay::float::single::SingleFloatOverlay;
+use i_overlay::mesh::float::outline::offset::OutlineOffset;
+use i_overlay::mesh::float::style::{LineJoin, OutlineStyle};
 
 use crate::geom::{P2, add, axpy, cross, dot, normalize, right_normal, scale, signed_area, sub};
 
@@ -101,8 +110,61 @@ pub fn offset_polygon(poly: &[P2], r: f64) -> Option<Vec<P2>> {
         ccw.reverse();
     }
     let pieces = offset_pieces(&ccw, r);
-    let shapes = pieces.simplify_shape_as::<i64>(FillRule::NonZero);
-    // The outer contour of the largest shape (a valid union is one shape).
+    // The outer contour of the largest shape (a valid union is one shape). The integer grid
+    // leaves the mitre joins' nearly collinear points (pa, tip, pb lie on the two offset
+    // lines): they are dropped.
+    let contour = largest_outer(pieces.simplify_shape_as::<i64>(FillRule::NonZero))?;
+    Some(normalized_contour(contour, r))
+}
+
+/// Radius of the disc that closes the cut line's dents ([`cut_line`]), in allowances.
+pub const DENT_RADIUS: f64 = 8.0;
+
+/// Angle (radians) of the segments approximating the arcs of [`cut_line`]'s round offsets.
+const ARC_STEP: f64 = 0.2;
+
+/// The cut line of a piece: [`offset_polygon`] with its dents closed. A sew line that zigzags
+/// on the scale of a mesh edge (seams follow the remeshed target's edges) leaves the exact
+/// offset with the same small dents, drawn as teeth on the cut line. Here the offset region is
+/// closed by a disc of radius [`DENT_RADIUS`]` · r` (dilated by it, then eroded by it, both
+/// with round joins: the morphological closing), which fills every dent narrower than about
+/// `r` and leaves the rest; the fabric it adds is kept within [`MITER_LIMIT`]` · r` of the sew
+/// line (intersected with the sew line's round offset by that much) and joined to the exact
+/// offset, so every sew-line point stays at least `r` inside the cut line (where the arcs'
+/// chords, which fall inside the true arcs, leave the closing a little short of the offset,
+/// the offset stands) and a piece without dents keeps its exact offset. `None` as for
+/// [`offset_polygon`].
+pub fn cut_line(sew: &[P2], r: f64) -> Option<Vec<P2>> {
+    let cut = offset_polygon(sew, r)?;
+    if !(r > 0.0) {
+        return Some(cut);
+    }
+    let c = DENT_RADIUS * r;
+    let round = |offset: f64| OutlineStyle::new(offset).line_join(LineJoin::Round(ARC_STEP));
+    let outer = |shapes: Vec<Vec<Vec<P2>>>| largest_outer(shapes);
+    let closed = (|| {
+        let dilated = outer(vec![cut.clone()].outline_as::<i64>(&round(c)))?;
+        let closed = outer(vec![dilated].outline_as::<i64>(&round(-c)))?;
+        let mut ccw = sew.to_vec();
+        if signed_area(&ccw) < 0.0 {
+            ccw.reverse();
+        }
+        let reach = outer(vec![ccw].outline_as::<i64>(&round(MITER_LIMIT * r)))?;
+        let added = outer(vec![closed].overlay_as::<i64>(&vec![reach], OverlayRule::Intersect, FillRule::NonZero))?;
+        outer(vec![cut.clone()].overlay_as::<i64>(&vec![added], OverlayRule::Union, FillRule::NonZero))
+    })();
+    match closed {
+        // Closing only adds fabric: anything else is the boolean operations' failure, and the
+        // exact offset stands.
+        Some(c) if c.len() >= 3 && signed_area(&c).abs() >= signed_area(&cut) * (1.0 - 1e-9) => {
+            Some(normalized_contour(c, r))
+        }
+        _ => Some(cut),
+    }
+}
+
+/// The outer contour of the largest of `shapes` (holes dropped), if any.
+fn largest_outer(shapes: Vec<Vec<Vec<P2>>>) -> Option<Vec<P2>> {
     let mut best: Option<(f64, Vec<P2>)> = None;
     for shape in shapes {
         let Some(outer) = shape.into_iter().next() else { continue };
@@ -111,7 +173,12 @@ pub fn offset_polygon(poly: &[P2], r: f64) -> Option<Vec<P2>> {
             best = Some((a, outer));
         }
     }
-    let (_, mut contour) = best?;
+    best.map(|(_, c)| c)
+}
+
+/// A contour made counter-clockwise, started at its lowest-then-leftmost vertex, with the
+/// nearly collinear points the integer grid leaves dropped (within 1e-9·r of their chord).
+fn normalized_contour(mut contour: Vec<P2>, r: f64) -> Vec<P2> {
     if signed_area(&contour) < 0.0 {
         contour.reverse();
     }
@@ -123,10 +190,7 @@ pub fn offset_polygon(poly: &[P2], r: f64) -> Option<Vec<P2>> {
         })
         .unwrap_or(0);
     contour.rotate_left(start);
-    // The integer grid leaves the mitre joins' nearly collinear points (pa, tip, pb lie on
-    // the two offset lines): drop points within 1e-9·r of the chord replacing them.
-    let contour = drop_collinear(contour, 1e-9 * r);
-    Some(contour)
+    drop_collinear(contour, 1e-9 * r)
 }
 
 /// Removes vertices closer than `tol` to the chord that replaces them: a vertex is dropped

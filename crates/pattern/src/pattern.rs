@@ -19,7 +19,7 @@ use crate::geom::{
 };
 use crate::input::{PatternOptions, PieceInput, PointMark};
 use crate::nest::nest_polygons;
-use crate::offset::offset_polygon;
+use crate::offset::cut_line;
 use crate::seams::{SidePath, interior_notch_count_f64, notch_params, seam_length_mismatch};
 use crate::validate::validate;
 
@@ -181,7 +181,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
     let mut first_too_wide: Option<(&PieceInput, f64, f64)> = None;
     let width = opts.fabric_width_mm;
     for p in pieces {
-        let Some(cut) = offset_polygon(&p.outline, r) else {
+        let Some(cut) = cut_line(&p.outline, r) else {
             if first_too_wide.is_some() {
                 break;
             }

@@ -5,7 +5,7 @@
 mod common;
 
 use clothcast_pattern::geom::{P2, signed_area};
-use clothcast_pattern::offset_polygon;
+use clothcast_pattern::{cut_line, offset_polygon};
 use common::{check_offset, comb, star};
 use proptest::prelude::*;
 
@@ -72,6 +72,53 @@ fn scale_robustness() {
     }
 }
 
+/// How far the bottom side of a cut line (its vertices below the panel, away from the corners)
+/// rises above its lowest point: the depth of its teeth.
+fn teeth_depth(cut: &[P2]) -> f64 {
+    let bottom: Vec<f64> = cut.iter().filter(|p| p[1] < 0.0 && p[0] > 30.0 && p[0] < 570.0).map(|p| p[1]).collect();
+    let lo = bottom.iter().copied().fold(f64::INFINITY, f64::min);
+    bottom.iter().map(|y| y - lo).fold(0.0, f64::max)
+}
+
+/// A sew line that zigzags on the scale of a mesh edge (a 600 × 300 mm panel whose bottom
+/// side has V dents 24 mm wide and 4 mm deep) leaves the exact offset with a tooth over every
+/// dent, as deep as the dent; the cut line's closing (a 120 mm disc for the 15 mm allowance)
+/// leaves under a quarter of that, the allowance kept everywhere, within the miter limit, never inside
+/// the exact offset. A panel without dents keeps its exact offset.
+#[test]
+fn the_cut_line_closes_small_dents() {
+    let r = 15.0;
+    let mut sew: Vec<P2> = Vec::new();
+    for k in 0..25 {
+        let x = 24.0 * k as f64;
+        sew.push([x, 0.0]);
+        sew.push([x + 12.0, 4.0]);
+    }
+    sew.extend([[600.0, 0.0], [600.0, 300.0], [0.0, 300.0]]);
+    assert!(signed_area(&sew) > 0.0);
+    let exact = checked(&sew, r);
+    let cut = cut_line(&sew, r).expect("cut line");
+    if let Err(e) = check_offset(&sew, &cut, r) {
+        panic!("{e}\ncut = {cut:?}");
+    }
+    let (before, after) = (teeth_depth(&exact), teeth_depth(&cut));
+    println!("teeth: {before:.2} mm in the exact offset, {after:.2} mm in the cut line");
+    assert!(before > 3.5, "the exact offset's teeth: {before} mm");
+    assert!(after < before / 4.0, "teeth of {after} mm left of {before} mm");
+    assert!(signed_area(&cut) >= signed_area(&exact));
+    for &p in &exact {
+        assert!(
+            clothcast_pattern::geom::point_in_polygon(p, &cut)
+                || clothcast_pattern::geom::dist_point_boundary(p, &cut) < 1e-9 * r,
+            "exact offset vertex {p:?} outside the cut line"
+        );
+    }
+    // Without dents: the exact offset, to the bit.
+    let panel = vec![[0.0, 0.0], [600.0, 0.0], [600.0, 300.0], [0.0, 300.0]];
+    assert_eq!(cut_line(&panel, r), offset_polygon(&panel, r));
+    assert_eq!(cut_line(&panel, 0.0).unwrap(), panel);
+}
+
 fn star_strategy() -> impl Strategy<Value = Vec<P2>> {
     (3usize..40).prop_flat_map(|n| {
         (prop::collection::vec(0.2f64..1.0, n), prop::collection::vec(5.0f64..400.0, n), -1e3f64..1e3).prop_map(
@@ -103,6 +150,17 @@ proptest! {
         let cut = offset_polygon(&sew, r).expect("offset");
         let res = check_offset(&sew, &cut, r);
         prop_assert!(res.is_ok(), "{:?}\nsew = {:?}\ncut = {:?}", res, sew, cut);
+    }
+
+    #[test]
+    fn random_star_cut_lines(sew in star_strategy(), r in 0.5f64..60.0) {
+        prop_assume!(signed_area(&sew) > 0.0);
+        prop_assume!(clothcast_pattern::geom::find_self_intersection(&sew).is_none());
+        let cut = cut_line(&sew, r).expect("cut line");
+        let res = check_offset(&sew, &cut, r);
+        prop_assert!(res.is_ok(), "{:?}\nsew = {:?}\ncut = {:?}", res, sew, cut);
+        let exact = offset_polygon(&sew, r).expect("offset");
+        prop_assert!(signed_area(&cut) >= signed_area(&exact) * (1.0 - 1e-12));
     }
 
     #[test]
