@@ -30,14 +30,14 @@
 //!   fibre axis; otherwise the angles of all sides to their nearest axis are minimised (the same
 //!   4-fold closed form over the side chords, weighted by length).
 //!
-//!
 //! Either rule fixes the turn up to a quarter turn, warp and weft being both fibres. Which of
 //! the two runs along the field's major direction (the largest principal stretch of the
 //! simulated mold) is decided after it ([`WarpAlong`], the paper's "which principal stretch
 //! goes on warp"): by default the warp, so that every piece of a mold carries its largest
-//! stretch on the same yarn (the stiffer one, when the user sets the rule by the fabric). The quarter turn is the one with `Σ w_f cos 2(θ_f + φ) > 0` over the major directions
-//! θ_f mapped into the piece (same weights); `major_on_warp_share` reports the weight nearer
-//! the warp than the weft.
+//! stretch on the same yarn (the stiffer one, when the user sets the rule by the fabric). The
+//! quarter turn is the one with `Σ w_f cos 2(θ_f + φ) > 0` over the major directions θ_f mapped
+//! into the piece (same weights); `major_on_warp_share` reports the weight nearer the warp
+//! than the weft.
 //!
 //! **Fibre alignment** of a piece: the area-weighted median over its faces of the angle between
 //! the field's direction there and the nearest fibre (warp or weft).
@@ -374,7 +374,7 @@ pub fn flatten_segmentation(
         let phi = phi + quarter_turn(&majors, phi, opts.warp_along);
         let (on_warp, weight) = majors
             .iter()
-            .fold((0.0, 0.0), |(a, b), &(t, w)| (if (2.0 * (t + phi)).cos() > 0.0 { a + w } else { a }, b + w));
+            .fold((0.0, 0.0), |(a, b), &(t, w)| (if toward_warp(t, phi) > 0.0 { a + w } else { a }, b + w));
         all_majors.0 += on_warp;
         all_majors.1 += weight;
         let centroid = {
@@ -491,13 +491,20 @@ fn four_fold_rotation(samples: impl Iterator<Item = (f64, f64)>) -> f64 {
 /// `majors` (angle in the piece's plane, weight) lie, on the whole, along the fibre `rule`
 /// asks for: the warp (+x) when `Σ w cos 2(θ + φ) > 0`. Ties keep `phi`.
 fn quarter_turn(majors: &[(f64, f64)], phi: f64, rule: WarpAlong) -> f64 {
-    let along_warp: f64 = majors.iter().map(|&(t, w)| w * (2.0 * (t + phi)).cos()).sum();
+    let along_warp: f64 = majors.iter().map(|&(t, w)| w * toward_warp(t, phi)).sum();
     let turn = match rule {
         WarpAlong::Major => along_warp < 0.0,
         WarpAlong::Minor => along_warp > 0.0,
         WarpAlong::Either => false,
     };
     if turn { FRAC_PI_2 } else { 0.0 }
+}
+
+/// How much a direction at angle `theta`, once the piece is turned by `phi`, lies along the
+/// warp rather than the weft: cos 2(θ + φ), 1 on the warp, −1 on the weft (either sign of the
+/// direction alike).
+fn toward_warp(theta: f64, phi: f64) -> f64 {
+    (2.0 * (theta + phi)).cos()
 }
 
 /// `part / whole`, 0.5 when the whole is nothing.

@@ -101,10 +101,8 @@ fn without_area_matching_boundary_lengths_are_kept() {
     }
 }
 
-/// On a flat patch with a constant field at 30°, the field rule turns the piece so that the
-/// fibres follow the field exactly; the side rule aligns the longest side of a long rectangle.
-#[test]
-fn orientation_rules() {
+/// A flat 4 × 1 strip with a constant cross field at 30° to its long side, laid out as one patch.
+fn strip_at_30_degrees() -> Segmentation {
     let m = shapes::grid(40, 10, 4.0, 1.0);
     let rho = connection(&m);
     let world = Vec3::new(30f64.to_radians().cos(), 30f64.to_radians().sin(), 0.0);
@@ -112,6 +110,14 @@ fn orientation_rules() {
     let field = CrossField::from_angles(&m, &rho, theta);
     let seg = segment(&m, &field, &[], &LayoutOptions::default()).unwrap();
     assert_eq!(seg.patches.len(), 1);
+    seg
+}
+
+/// On a flat patch with a constant field at 30°, the field rule turns the piece so that the
+/// fibres follow the field exactly; the side rule aligns the longest side of a long rectangle.
+#[test]
+fn orientation_rules() {
+    let seg = strip_at_30_degrees();
     let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
     let major = &seg.field_directions;
     let by_field = flatten_segmentation(&seg, &ones, major, &FlattenOptions::default()).unwrap();
@@ -143,13 +149,8 @@ fn orientation_rules() {
 /// the share is 0.5 and the turn is the rule's.
 #[test]
 fn warp_runs_along_the_major_direction() {
-    let m = shapes::grid(40, 10, 4.0, 1.0);
-    let rho = connection(&m);
-    let (a, b) = (30f64.to_radians(), 120f64.to_radians());
-    let world = Vec3::new(a.cos(), a.sin(), 0.0);
-    let theta: FaceData<f64> = m.face_ids().map(|f| m.face_frame(f).angle_of(&world)).collect();
-    let field = CrossField::from_angles(&m, &rho, theta);
-    let seg = segment(&m, &field, &[], &LayoutOptions::default()).unwrap();
+    let seg = strip_at_30_degrees();
+    let b = 120f64.to_radians();
     let n = seg.mesh.n_faces();
     let ones = FaceData::filled(n, 1.0);
     // Either sign of the direction means the same.
