@@ -60,6 +60,22 @@ impl Element {
         Self { grad_n: [-(g1 + g2), g1, g2], area: 0.5 * l * b }
     }
 
+    /// Rest data from a triangle given in the plane, e.g. on a cut pattern: the material frame
+    /// is the plane's (its first axis along +u, the warp of a pattern piece). `None` when the
+    /// triangle is degenerate or clockwise (a folded pattern triangle).
+    pub fn from_plane(uv: &[Vector2<f64>; 3]) -> Option<Self> {
+        let dm = Matrix2::from_columns(&[uv[1] - uv[0], uv[2] - uv[0]]);
+        let det = dm.determinant();
+        let scale = (uv[1] - uv[0]).norm_squared().max((uv[2] - uv[0]).norm_squared());
+        if !(det > 1e-12 * scale) {
+            return None;
+        }
+        let inv = dm.try_inverse()?;
+        let g1 = Vector2::new(inv[(0, 0)], inv[(0, 1)]);
+        let g2 = Vector2::new(inv[(1, 0)], inv[(1, 1)]);
+        Some(Self { grad_n: [-(g1 + g2), g1, g2], area: 0.5 * det })
+    }
+
     /// Rest data of every face of a mesh (the target is the rest shape).
     pub fn for_mesh(mesh: &Mesh) -> Vec<Self> {
         mesh.face_ids().map(|f| Self::from_corners(&mesh.face_positions(f))).collect()

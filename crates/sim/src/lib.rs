@@ -41,5 +41,7 @@ pub mod relax;
 pub mod scenario;
 pub mod system;
 
-pub use material::{Material, StVenantKirchhoff};
-pub use scenario::{FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate};
+pub use material::{Material, StVenantKirchhoff, WovenFabric};
+pub use scenario::{
+    FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate, simulate_sewn,
+};

@@ -201,6 +201,99 @@ impl Material for WrinklingStVenantKirchhoff {
     }
 }
 
+/// A woven fabric as two families of yarns, warp along the material frame's first axis and
+/// weft along its second, held together by a weave that resists shearing (the paper's §7.4
+/// validation uses the orthotropic model of Wang et al. 2011, ALGORITHMS.md §11; this is its
+/// orthotropic energy, with constant stiffnesses, and with the yarns' compression relaxed).
+/// With Green strains `E11` (warp), `E22` (weft), `γ = 2 E12`, their tensile parts
+/// `a = max(E11, 0)`, `b = max(E22, 0)`, and `c` the compression fraction:
+///
+/// `W = ½ k_warp (a² + c min(E11, 0)²) + k_c a b + ½ k_weft (b² + c min(E22, 0)²) + ½ G γ²`,
+///
+/// so `k_warp`, `k_weft` are the tensile stiffnesses (N/m) of a 1 m strip along each yarn
+/// (WOR11's k0 and k2), `k_c` their coupling (k1) and `G` the in-plane shear modulus (k3/4).
+/// A yarn in compression buckles out of the weave and keeps only a small fraction `c` of its
+/// stiffness (as the tension-field model lets an isotropic membrane wrinkle; with `c = 0` a
+/// region slack in both yarns could crumple freely, which a static solve cannot settle: a fan
+/// of thin triangles with one warp direction, a cylinder's flat cap, stalled at a relative
+/// residual of 10⁻² without it). The energy is C¹, convex in E when `k_c² ≤ k_warp k_weft`
+/// (checked by [`WovenFabric::new`]), and its tangent is PSD.
+///
+/// The material frame of a face is its rest element's: [`crate::element::Element::from_plane`]
+/// on the pattern piece, whose +u is the warp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WovenFabric {
+    /// Tensile stiffness along the warp (N/m).
+    pub warp: f64,
+    /// Tensile stiffness along the weft (N/m).
+    pub weft: f64,
+    /// Coupling of warp and weft tension (N/m).
+    pub coupling: f64,
+    /// In-plane shear modulus (N/m).
+    pub shear: f64,
+    /// A yarn's stiffness in compression as a fraction of its tensile stiffness (a woven
+    /// fabric's yarns buckle: 0 would leave a region slack in both yarns free to crumple with
+    /// no stiffness at all, which a static solve cannot settle; [`WovenFabric::COMPRESSION`]).
+    pub compression: f64,
+}
+
+impl WovenFabric {
+    /// The default [`WovenFabric::compression`].
+    pub const COMPRESSION: f64 = 0.01;
+
+    /// The fabric, or a message naming the value that makes it unphysical (a stiffness not
+    /// positive and finite, or a coupling above √(k_warp k_weft), which makes the energy
+    /// non-convex).
+    pub fn new(warp: f64, weft: f64, coupling: f64, shear: f64) -> Result<Self, String> {
+        for (name, v) in [("warp stiffness", warp), ("weft stiffness", weft), ("shear modulus", shear)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be positive and finite (got {v})"));
+            }
+        }
+        if !(coupling.is_finite() && coupling >= 0.0 && coupling * coupling <= warp * weft) {
+            return Err(format!(
+                "coupling must be between 0 and sqrt(warp stiffness × weft stiffness) = {:.4e} (got {coupling})",
+                (warp * weft).sqrt()
+            ));
+        }
+        Ok(Self { warp, weft, coupling, shear, compression: Self::COMPRESSION })
+    }
+}
+
+impl WovenFabric {
+    /// A yarn's stiffness at its strain: `k` in tension, `compression · k` in compression.
+    #[inline]
+    fn yarn(&self, k: f64, e: f64) -> f64 {
+        if e > 0.0 { k } else { self.compression * k }
+    }
+}
+
+impl Material for WovenFabric {
+    fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
+        let (a, b) = (e[0].max(0.0), e[1].max(0.0));
+        let (kw, kf) = (self.yarn(self.warp, e[0]), self.yarn(self.weft, e[1]));
+        let (ta, tb) = (f64::from(u8::from(e[0] > 0.0)), f64::from(u8::from(e[1] > 0.0)));
+        let stress =
+            Vector3::new(kw * e[0] + ta * self.coupling * b, kf * e[1] + tb * self.coupling * a, self.shear * e[2]);
+        let c = ta * tb * self.coupling;
+        let tangent = Matrix3::new(kw, c, 0.0, c, kf, 0.0, 0.0, 0.0, self.shear);
+        MaterialResponse { energy: self.energy(face, e), stress, tangent }
+    }
+    fn energy(&self, _face: FaceId, e: &Vector3<f64>) -> f64 {
+        let (a, b) = (e[0].max(0.0), e[1].max(0.0));
+        0.5 * self.yarn(self.warp, e[0]) * e[0] * e[0]
+            + self.coupling * a * b
+            + 0.5 * self.yarn(self.weft, e[1]) * e[1] * e[1]
+            + 0.5 * self.shear * e[2] * e[2]
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.warp.max(self.weft)
+    }
+    fn is_uniform(&self) -> bool {
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -256,6 +349,47 @@ mod tests {
             assert!((r.energy - 0.5 * m.stvk.youngs_modulus() * 0.05f64.powi(2)).abs() < 1e-6);
             assert!(r.stress[1].abs() < 1e-3);
         }
+    }
+
+    #[test]
+    fn woven_fabric_derivatives_and_buckling_yarns() {
+        let m = WovenFabric::new(5.0e4, 2.0e4, 1.0e3, 1.5e3).unwrap();
+        let f = FaceId(0);
+        // Both yarns taut, warp only, weft only, both slack (shear alone).
+        let samples = [
+            Vector3::new(0.05, 0.04, 0.01),
+            Vector3::new(0.08, -0.05, 0.03),
+            Vector3::new(-0.02, 0.06, -0.05),
+            Vector3::new(-0.03, -0.02, 0.01),
+        ];
+        for e in &samples {
+            let r = m.response(f, e);
+            let h = 1e-7;
+            for j in 0..3 {
+                let (mut ep, mut em) = (*e, *e);
+                ep[j] += h;
+                em[j] -= h;
+                let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
+                assert!(
+                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
+                    "dW/dE{j}: {ds} vs {}",
+                    r.stress[j]
+                );
+                let dc = (m.response(f, &ep).stress - m.response(f, &em).stress) / (2.0 * h);
+                for i in 0..3 {
+                    assert!((dc[i] - r.tangent[(i, j)]).abs() < 1e-4 * (1.0 + r.tangent[(i, j)].abs()));
+                }
+            }
+            assert!(r.tangent.symmetric_eigenvalues().min() > -1e-9);
+        }
+        // A compressed yarn carries a hundredth of what it would in tension; a stretched one k·E
+        // (the coupling only between stretched yarns).
+        let r = m.response(f, &Vector3::new(0.1, -0.1, 0.0));
+        assert!((r.stress[1] - 0.01 * 2.0e4 * -0.1).abs() < 1e-9, "{}", r.stress[1]);
+        assert!((r.stress[0] - 5.0e3).abs() < 1e-9);
+        // Unphysical values are refused, naming them.
+        assert!(WovenFabric::new(5.0e4, 2.0e4, 4.0e4, 1.0).unwrap_err().contains("coupling"));
+        assert!(WovenFabric::new(5.0e4, 0.0, 0.0, 1.0).unwrap_err().contains("weft"));
     }
 
     #[test]

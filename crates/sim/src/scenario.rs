@@ -2,13 +2,15 @@
 
 use crate::coarse::{CoarseOptions, CoarseStats, Problem, coarse_start};
 use crate::constraints::Constraints;
+use crate::element::Element;
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
 use crate::material::Material;
 use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve};
 use crate::system::{Loads, System};
 use clothcast_mesh::sparse::SolveError;
-use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
+use clothcast_mesh::{FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
+use nalgebra::Vector2;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -150,6 +152,12 @@ pub enum SimError {
         vertex: VertexId,
         /// Signed distance (≤ 0).
         distance: f64,
+    },
+    /// A rest triangle of a sewn mold is degenerate or folded.
+    #[error("the pattern triangle of face {} is degenerate or folded (clockwise)", face.idx())]
+    FoldedRest {
+        /// The face.
+        face: FaceId,
     },
     /// The linear solver failed (not an input problem).
     #[error("linear solver failure: {0}")]
@@ -343,6 +351,35 @@ pub fn simulate(
     sc: &Scenario,
     progress: &mut dyn FnMut(&IterationReport),
 ) -> Result<SimResult, SimError> {
+    simulate_with_rest(mesh, None, material, sc, progress)
+}
+
+/// Simulate a sewn mold: `mesh` is the assembled mold at its starting positions (the target,
+/// metres), `rest` the triangle of each face on its cut pattern piece (metres, counter-clockwise,
+/// the piece's +u along the warp: the material frame of [`crate::material::WovenFabric`]). The
+/// seams are the mesh's shared edges. Solved from the target without the coarse start (a
+/// simplified copy has no pattern triangles).
+pub fn simulate_sewn(
+    mesh: &Mesh,
+    rest: &FaceData<[Vector2<f64>; 3]>,
+    material: &dyn Material,
+    sc: &Scenario,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<SimResult, SimError> {
+    let elements = mesh
+        .face_ids()
+        .map(|f| Element::from_plane(&rest[f]).ok_or(SimError::FoldedRest { face: f }))
+        .collect::<Result<Vec<_>, _>>()?;
+    simulate_with_rest(mesh, Some(elements), material, sc, progress)
+}
+
+fn simulate_with_rest(
+    mesh: &Mesh,
+    rest: Option<Vec<Element>>,
+    material: &dyn Material,
+    sc: &Scenario,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<SimResult, SimError> {
     let t0 = Instant::now();
     let up = sc.up.normalize();
     let (low, top) = extent(mesh, &up);
@@ -399,8 +436,10 @@ pub fn simulate(
     let barrier = (!sc.supports.is_empty()).then(|| contact_barrier(mesh, p_max, material));
 
     let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
-    let mut coarse =
-        sc.coarse.filter(|co| material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2).map(|co| {
+    let mut coarse = sc
+        .coarse
+        .filter(|co| rest.is_none() && material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2)
+        .map(|co| {
             let pb = Problem {
                 mesh,
                 material,
@@ -412,7 +451,9 @@ pub fn simulate(
             };
             coarse_start(&pb, co.ratio)
         });
-    let mut sys = System::new(mesh, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
+    let elements = rest.unwrap_or_else(|| Element::for_mesh(mesh));
+    let mut sys =
+        System::with_elements(mesh, elements, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
     let res = match &mut coarse {
         Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, target, &sc.newton, progress)?,
         _ => solve(&mut sys, target, &sc.newton, progress)?,

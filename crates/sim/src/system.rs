@@ -171,7 +171,7 @@ pub struct Evaluation {
 }
 
 impl<'a> System<'a> {
-    /// Set up: elements, dofs, pattern and slots.
+    /// Set up: elements (each target triangle its own rest shape), dofs, pattern and slots.
     pub fn new(
         mesh: &'a Mesh,
         material: &'a dyn Material,
@@ -180,8 +180,22 @@ impl<'a> System<'a> {
         supports: Vec<Plane>,
         barrier: Option<Barrier>,
     ) -> Self {
+        Self::with_elements(mesh, Element::for_mesh(mesh), material, loads, constraints, supports, barrier)
+    }
+
+    /// Set up with given rest elements, one per face in face order (a sewn mold: each face's
+    /// rest shape is its triangle on the cut pattern, [`Element::from_plane`]).
+    pub fn with_elements(
+        mesh: &'a Mesh,
+        elements: Vec<Element>,
+        material: &'a dyn Material,
+        loads: Loads,
+        constraints: &Constraints,
+        supports: Vec<Plane>,
+        barrier: Option<Barrier>,
+    ) -> Self {
+        assert_eq!(elements.len(), mesh.n_faces(), "one rest element per face");
         let nv = mesh.n_vertices();
-        let elements = Element::for_mesh(mesh);
         let areas = mesh.vertex_areas();
         let vertex_mass_weight = match loads.self_weight {
             Some((w, _)) => areas.iter().map(|a| a * w).collect(),

@@ -1,0 +1,124 @@
+//! A sewn mold: every face's rest shape given as a triangle on a pattern (its +u the warp),
+//! simulated with the woven fabric (`simulate_sewn`, `WovenFabric`).
+
+use clothcast_mesh::{FaceData, Mesh, Vec3, VertexId, shapes};
+use clothcast_sim::material::{StVenantKirchhoff, WovenFabric};
+use clothcast_sim::*;
+use nalgebra::Vector2;
+
+/// Each face flattened isometrically, its +u along `warp(face centre, normal)` projected into
+/// the face's plane.
+fn patterns(mesh: &Mesh, warp: impl Fn(Vec3, Vec3) -> Vec3) -> FaceData<[Vector2<f64>; 3]> {
+    mesh.face_ids()
+        .map(|f| {
+            let p = mesh.face_positions(f);
+            let n = (p[1] - p[0]).cross(&(p[2] - p[0])).normalize();
+            let c = (p[0] + p[1] + p[2]) / 3.0;
+            let w = warp(c, n);
+            let u = (w - n * n.dot(&w)).normalize();
+            let v = n.cross(&u);
+            p.map(|x| Vector2::new((x - p[0]).dot(&u), (x - p[0]).dot(&v)))
+        })
+        .collect()
+}
+
+fn centroid(p: &[Vec3]) -> Vec3 {
+    p.iter().sum::<Vec3>() / p.len() as f64
+}
+
+/// A woven fabric whose two yarns, shear and coupling equal an isotropic StVK's (k = λ + 2μ,
+/// k_c = λ, G = μ) behaves like it wherever both yarns are stretched: an inflated sphere, its
+/// pattern triangles turned every which way, comes out as the isotropic one.
+#[test]
+fn isotropic_equivalent_weave_matches_stvk_on_an_inflated_sphere() {
+    let mesh = shapes::icosphere(3, 0.2);
+    let iso = StVenantKirchhoff::from_young_poisson(5.0e4, 0.3);
+    let woven = WovenFabric::new(iso.lambda + 2.0 * iso.mu, iso.lambda + 2.0 * iso.mu, iso.lambda, iso.mu).unwrap();
+    let sc = Scenario { infill_density: 0.0, head_pressure: 6.0e4, suspension: Suspension::None, ..Default::default() };
+    let a = simulate(&mesh, &iso, &sc, &mut |_| {}).unwrap();
+    // Warp directions that vary from face to face (a swirl about a tilted axis).
+    let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
+    let rest = patterns(&mesh, |c, n| axis.cross(&c) + n.cross(&c) * 3.0 + Vec3::new(1.0, 0.2, 0.1));
+    let b = simulate_sewn(&mesh, &rest, &woven, &sc, &mut |_| {}).unwrap();
+    assert!(a.stats.converged && b.stats.converged);
+    let (ca, cb) = (centroid(a.positions.as_slice()), centroid(b.positions.as_slice()));
+    let worst =
+        a.positions.iter().zip(b.positions.iter()).map(|(x, y)| ((x - ca) - (y - cb)).norm()).fold(0.0, f64::max);
+    assert!(worst < 1e-6 * 0.2, "largest difference {worst} m");
+    // Stretched noticeably, so the comparison means something.
+    assert!(a.stats.mean_displacement_m > 0.02, "{}", a.stats.mean_displacement_m);
+}
+
+/// A long closed cylinder of woven fabric under pressure, warp around it or along it: the
+/// middle section's hoop and axial stretches against the closed form (S_θ = pRλ_z,
+/// S_z = pRλ_θ²/(2λ_z), with S_θ = k_θ E_θ + k_c E_z, S_z = k_c E_θ + k_z E_z).
+#[test]
+fn woven_cylinder_matches_closed_form_for_either_warp_direction() {
+    let (rad, len, n) = (0.05, 0.6, 48);
+    let mesh = shapes::cylinder(rad, len, n, 60, true, true);
+    let r_poly = rad * (std::f64::consts::PI / n as f64).sin() / (std::f64::consts::PI / n as f64);
+    let p = 2000.0;
+    let fabric = WovenFabric::new(6.0e4, 2.0e4, 2.0e3, 1.0e3).unwrap();
+    let sc = Scenario { infill_density: 0.0, head_pressure: p, suspension: Suspension::None, ..Default::default() };
+    let mut hoop = Vec::new();
+    for warp_around in [true, false] {
+        let (kt, kz) = if warp_around { (fabric.warp, fabric.weft) } else { (fabric.weft, fabric.warp) };
+        let kc = fabric.coupling;
+        let (mut lt, mut lz) = (1.05f64, 1.01f64);
+        for _ in 0..60 {
+            let (et, ez) = (0.5 * (lt * lt - 1.0), 0.5 * (lz * lz - 1.0));
+            let (st, sz) = (kt * et + kc * ez, kc * et + kz * ez);
+            let f = [st - p * r_poly * lz, sz - p * r_poly * lt * lt / (2.0 * lz)];
+            let j = [
+                [kt * lt, kc * lz - p * r_poly],
+                [kc * lt - p * r_poly * lt / lz, kz * lz + p * r_poly * lt * lt / (2.0 * lz * lz)],
+            ];
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            lt -= (f[0] * j[1][1] - f[1] * j[0][1]) / det;
+            lz -= (j[0][0] * f[1] - j[1][0] * f[0]) / det;
+        }
+        let rest = patterns(&mesh, |c, nrm| {
+            let around = Vec3::z().cross(&Vec3::new(c.x, c.y, 0.0));
+            // Cap faces (normal along the axis): one warp direction for the whole flat cap, as on
+            // a cut piece; the side's warp around or along.
+            if nrm.z.abs() > 0.9 {
+                Vec3::x()
+            } else if warp_around {
+                around
+            } else {
+                Vec3::z()
+            }
+        });
+        let r = simulate_sewn(&mesh, &rest, &fabric, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{:?}", r.stats.termination);
+        let ring = |j: usize| -> Vec<Vec3> { (0..n).map(|i| r.positions[VertexId::new(j * n + i)]).collect() };
+        let (a, b) = (ring(24), ring(36));
+        let (ca, cb) = (centroid(&a), centroid(&b));
+        let axis = (cb - ca).normalize();
+        let measured_lz = (cb - ca).norm() / (len * 12.0 / 60.0);
+        let radius = |pts: &[Vec3], c: Vec3| {
+            pts.iter().map(|x| ((x - c) - axis * axis.dot(&(x - c))).norm()).sum::<f64>() / pts.len() as f64
+        };
+        let measured_lt = 0.5 * (radius(&a, ca) + radius(&b, cb)) / rad;
+        assert!((measured_lt - lt).abs() / lt < 0.005, "warp around {warp_around}: hoop {measured_lt} vs {lt}");
+        assert!((measured_lz - lz).abs() / lz < 0.005, "warp around {warp_around}: axial {measured_lz} vs {lz}");
+        hoop.push(measured_lt);
+    }
+    // The stiff yarn around the cylinder holds it narrower (3× stiffer, about a third the strain).
+    assert!(hoop[1] - 1.0 > 2.0 * (hoop[0] - 1.0), "{hoop:?}");
+}
+
+/// A folded pattern triangle is refused, naming the face.
+#[test]
+fn folded_pattern_triangle_is_refused() {
+    let mesh = shapes::icosphere(1, 0.2);
+    let mut rest = patterns(&mesh, |_, _| Vec3::x());
+    rest[clothcast_mesh::FaceId::new(7)].swap(1, 2);
+    let fabric = WovenFabric::new(5.0e4, 5.0e4, 0.0, 1.0e3).unwrap();
+    let sc = Scenario { infill_density: 0.0, head_pressure: 100.0, suspension: Suspension::None, ..Default::default() };
+    let Err(e) = simulate_sewn(&mesh, &rest, &fabric, &sc, &mut |_| {}) else {
+        panic!("a folded triangle was accepted")
+    };
+    assert!(matches!(e, SimError::FoldedRest { face } if face.idx() == 7), "{e}");
+    assert!(e.to_string().contains("face 7"));
+}
