@@ -34,6 +34,8 @@ pub struct Config {
     pub layout: LayoutSection,
     /// Flattening, orientation and sewing patterns.
     pub pattern: PatternSection,
+    /// The check: the mold sewn from the patterns, of a woven fabric.
+    pub validation: ValidationSection,
 }
 
 impl Default for Config {
@@ -49,7 +51,32 @@ impl Default for Config {
             field: FieldSection::default(),
             layout: LayoutSection::default(),
             pattern: PatternSection::default(),
+            validation: ValidationSection::default(),
         }
+    }
+}
+
+/// `[validation]`: the mold sewn from the cut patterns, of a woven fabric, filled as in the
+/// simulation; how far the cast deviates from the target.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ValidationSection {
+    /// Run the check (`clothcast run`).
+    pub enabled: bool,
+    /// Tensile stiffness of a 1 m strip along the warp (N/m); absent: `[material]
+    /// youngs_modulus`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warp_stiffness: Option<f64>,
+    /// The same along the weft (N/m); absent: `[material] youngs_modulus`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weft_stiffness: Option<f64>,
+    /// In-plane shear modulus over √(warp · weft stiffness).
+    pub shear_ratio: f64,
+}
+
+impl Default for ValidationSection {
+    fn default() -> Self {
+        Self { enabled: true, warp_stiffness: None, weft_stiffness: None, shear_ratio: 0.03 }
     }
 }
 
@@ -702,6 +729,14 @@ impl Config {
                 "must be at least 1 (inf: no limit)",
             ));
         }
+        let v = &self.validation;
+        if let Some(k) = v.warp_stiffness {
+            positive("validation", "warp_stiffness", k)?;
+        }
+        if let Some(k) = v.weft_stiffness {
+            positive("validation", "weft_stiffness", k)?;
+        }
+        positive("validation", "shear_ratio", v.shear_ratio)?;
         Ok(())
     }
 }

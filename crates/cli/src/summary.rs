@@ -33,6 +33,9 @@ pub struct Stages {
     /// Building and writing the sewing patterns.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub patterns: Option<StageTime>,
+    /// The check: the sewn mold, filled.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation: Option<StageTime>,
 }
 
 /// The whole summary.
@@ -61,6 +64,9 @@ pub struct Summary {
     /// The sewing patterns.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub patterns: Option<crate::stages::patterns::PatternsSummary>,
+    /// The check: the mold sewn from the patterns, filled.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation: Option<crate::stages::validation::ValidationSummary>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

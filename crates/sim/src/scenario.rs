@@ -354,14 +354,17 @@ pub fn simulate(
     simulate_with_rest(mesh, None, material, sc, progress)
 }
 
-/// Simulate a sewn mold: `mesh` is the assembled mold at its starting positions (the target,
-/// metres), `rest` the triangle of each face on its cut pattern piece (metres, counter-clockwise,
-/// the piece's +u along the warp: the material frame of [`crate::material::WovenFabric`]). The
-/// seams are the mesh's shared edges. Solved from the target without the coarse start (a
-/// simplified copy has no pattern triangles).
+/// Simulate a sewn mold: `mesh` is the assembled mold in the target's place (metres: where it
+/// is clamped, and what the scenario's fill level and supports refer to), `rest` the triangle
+/// of each face on its cut pattern piece (metres, counter-clockwise, the piece's +u along the
+/// warp: the material frame of [`crate::material::WovenFabric`]). The seams are the mesh's
+/// shared edges. Solved from `start` (e.g. an earlier equilibrium carried over; a vertex with a
+/// constrained direction starts where the mesh has it) or from the mesh, without the coarse
+/// start (a simplified copy has no pattern triangles).
 pub fn simulate_sewn(
     mesh: &Mesh,
     rest: &FaceData<[Vector2<f64>; 3]>,
+    start: Option<Vec<Vec3>>,
     material: &dyn Material,
     sc: &Scenario,
     progress: &mut dyn FnMut(&IterationReport),
@@ -370,12 +373,13 @@ pub fn simulate_sewn(
         .face_ids()
         .map(|f| Element::from_plane(&rest[f]).ok_or(SimError::FoldedRest { face: f }))
         .collect::<Result<Vec<_>, _>>()?;
-    simulate_with_rest(mesh, Some(elements), material, sc, progress)
+    assert!(start.as_ref().is_none_or(|s| s.len() == mesh.n_vertices()), "one start position per vertex");
+    simulate_with_rest(mesh, Some((elements, start)), material, sc, progress)
 }
 
 fn simulate_with_rest(
     mesh: &Mesh,
-    rest: Option<Vec<Element>>,
+    rest: Option<(Vec<Element>, Option<Vec<Vec3>>)>,
     material: &dyn Material,
     sc: &Scenario,
     progress: &mut dyn FnMut(&IterationReport),
@@ -451,11 +455,20 @@ fn simulate_with_rest(
             };
             coarse_start(&pb, co.ratio)
         });
-    let elements = rest.unwrap_or_else(|| Element::for_mesh(mesh));
+    let (elements, start) = rest.unwrap_or_else(|| (Element::for_mesh(mesh), None));
+    let start = start.map(|mut x| {
+        for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
+            x[v.idx()] = target[v.idx()];
+        }
+        x
+    });
     let mut sys =
         System::with_elements(mesh, elements, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
-    let res = match &mut coarse {
-        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, target, &sc.newton, progress)?,
+    let res = match (&mut coarse, start) {
+        (_, Some(x)) => solve(&mut sys, x, &sc.newton, progress)?,
+        (Some((Some(x), st)), None) => {
+            solve_from_coarse(&mut sys, std::mem::take(x), st, target, &sc.newton, progress)?
+        }
         _ => solve(&mut sys, target, &sc.newton, progress)?,
     };
     let coarse = coarse.map(|(_, st)| st);

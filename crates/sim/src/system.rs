@@ -697,7 +697,7 @@ impl<'a> System<'a> {
         self.buf.par_iter_mut().zip(self.hess.par_chunks_mut(PICKS)).zip(&self.stored).for_each(|((out, hout), sf)| {
             let f = sf.face;
             let p = sf.vertices.map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, true);
+            let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, material.project_geometric());
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &loads.hydrostatic
@@ -903,7 +903,7 @@ mod tests {
         for f in mesh.face_ids() {
             let vs = mesh.face_vertices(f);
             let p = vs.map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = sys.element(f).evaluate(sys.material, f, &p, true);
+            let (mut e, mut g, mut h) = sys.element(f).evaluate(sys.material, f, &p, sys.material.project_geometric());
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &sys.loads.hydrostatic

@@ -258,6 +258,18 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     };
     let pattern_files: Vec<String> = patterns.as_ref().map(|p| p.summary.files.clone()).unwrap_or_default();
 
+    // Stage 6: the check, the mold sewn from the patterns.
+    let validation = match (segmentation.as_ref(), patterns.as_ref()) {
+        (Some(seg), Some(p)) if until >= Until::All && cfg.validation.enabled => {
+            let v = stages::validation::run(&cfg, &input, &sim, seg, p, progress)?;
+            stages::validation::write_outputs(&args.out, &input, seg, &v)?;
+            written.push("cast.ply");
+            stages.validation = Some(StageTime { seconds: v.summary.seconds });
+            Some(v.summary)
+        }
+        _ => None,
+    };
+
     let summary = Summary {
         version: env!("CARGO_PKG_VERSION"),
         input: input.summary(),
@@ -268,6 +280,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         segmentation: segmentation.map(|s| s.stats),
         flattening: patterns.as_ref().map(|p| p.flat.report.clone()),
         patterns: patterns.map(|p| p.summary),
+        validation,
         seconds_total: t0.elapsed().as_secs_f64(),
     };
     let path = args.out.join("summary.json");

@@ -5,3 +5,4 @@ pub mod field;
 pub mod patterns;
 pub mod segmentation;
 pub mod simulation;
+pub mod validation;

@@ -1,0 +1,90 @@
+//! The check (stage 6 of `clothcast run`): the mold sewn from the cut patterns, of a woven
+//! fabric, filled; how far the cast deviates from the target.
+
+mod common;
+use common::*;
+
+use std::path::Path;
+
+/// Vertex and face counts and property names of a binary PLY's header.
+fn ply_header(path: &Path) -> (usize, usize, Vec<String>) {
+    let bytes = std::fs::read(path).unwrap();
+    let end = bytes.windows(10).position(|w| w == b"end_header").expect("a PLY header");
+    let header = String::from_utf8_lossy(&bytes[..end]).to_string();
+    let count = |what: &str| -> usize {
+        header.lines().find_map(|l| l.strip_prefix(&format!("element {what} "))).unwrap().trim().parse().unwrap()
+    };
+    let props = header
+        .lines()
+        .filter_map(|l| l.split_whitespace().nth(2).filter(|_| l.starts_with("property")))
+        .map(String::from)
+        .collect();
+    (count("vertex"), count("face"), props)
+}
+
+/// With a warp five times stiffer than the weft, putting the warp along the mold's largest
+/// stretch (`warp_along = "major"`) gives a truer cast than putting the weft there: the check
+/// tells the orientations apart, as the paper's Fig. 12 and 16 do.
+#[test]
+fn the_stiff_yarn_along_the_stretch_casts_truer() {
+    let mut dev = Vec::new();
+    for rule in ["major", "minor"] {
+        let out = tmpdir(&format!("validation-{rule}"));
+        let toml = format!(
+            "[pattern]\nwarp_along = \"{rule}\"\n[validation]\nwarp_stiffness = 100000.0\nweft_stiffness = 20000.0\n"
+        );
+        run_configured("run", &out, &toml, &[], 0);
+        let v = &summary(&out)["validation"];
+        assert_eq!(v["converged"], true, "{v}");
+        assert_eq!(v["fabric"]["warp_stiffness"], 100000.0);
+        assert_eq!(v["fabric"]["weft_stiffness"], 20000.0);
+        // G = 0.03 √(k_warp k_weft).
+        assert!((v["fabric"]["shear_modulus"].as_f64().unwrap() - 0.03 * 2.0e9f64.sqrt()).abs() < 1e-6);
+        dev.push(v["deviation_mean_m"].as_f64().unwrap());
+    }
+    assert!(dev[0] < 0.98 * dev[1], "major {} mm, minor {} mm", dev[0] * 1e3, dev[1] * 1e3);
+}
+
+/// A softer fabric stretches more: the cast bulges further. (A flat membrane under pressure
+/// bulges by about (p/k)^⅓ (Hencky), so 3.3× softer is about 1.5× the bulge where the example is
+/// flat and less where it is curved; measured 13.1 → 16.4 mm.)
+#[test]
+fn a_softer_fabric_deviates_further() {
+    let mut dev = Vec::new();
+    for k in ["50000.0", "15000.0"] {
+        let out = tmpdir(&format!("validation-soft-{k}"));
+        run_configured("run", &out, &format!("[validation]\nwarp_stiffness = {k}\nweft_stiffness = {k}\n"), &[], 0);
+        let v = &summary(&out)["validation"];
+        assert_eq!(v["converged"], true, "{v}");
+        dev.push(v["deviation_signed_mean_m"].as_f64().unwrap());
+        // cast.ply: the segmented mesh, its deviation per vertex and the weave per face.
+        let (nv, nf, props) = ply_header(&out.join("cast.ply"));
+        assert_eq!(nv as u64, v["vertices"].as_u64().unwrap());
+        assert_eq!(nf as u64, v["faces"].as_u64().unwrap());
+        for p in ["deviation", "patch", "shear_deg", "warp_stretch", "weft_stretch"] {
+            assert!(props.iter().any(|q| q == p), "cast.ply lacks {p}: {props:?}");
+        }
+    }
+    assert!(dev[1] > 1.15 * dev[0], "{dev:?}");
+}
+
+/// `enabled = false` skips the check; bad fabric values are input errors naming the key.
+#[test]
+fn the_check_can_be_skipped_and_bad_values_are_named() {
+    let out = tmpdir("validation-off");
+    run_configured("run", &out, "[validation]\nenabled = false\n", &[], 0);
+    let s = summary(&out);
+    assert!(s["validation"].is_null() && s["stages"]["validation"].is_null());
+    assert!(!out.join("cast.ply").exists());
+    assert!(out.join("patterns/pattern.svg").is_file());
+    // The single-stage commands stop before it.
+    let out = tmpdir("validation-flatten");
+    expect_exit(&run_stage("flatten", &out, None, &[]), 0);
+    assert!(summary(&out)["validation"].is_null() && !out.join("cast.ply").exists());
+    for (key, value) in [("shear_ratio", "-0.1"), ("warp_stiffness", "0.0"), ("weft_stiffness", "nan")] {
+        let out = tmpdir(&format!("validation-bad-{key}"));
+        let t = run_configured("run", &out, &format!("[validation]\n{key} = {value}\n"), &[], 2);
+        assert_mentions(&t, &format!("validation.{key}"));
+        assert!(!out.join("summary.json").exists());
+    }
+}
