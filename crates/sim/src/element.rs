@@ -1,7 +1,8 @@
 //! Constant-strain membrane triangles (ALGORITHMS.md §1.1).
 //!
 //! Each target triangle, flattened isometrically into its own face frame, is the rest shape of
-//! its element (paper §3: the panels are not known yet, so every triangle is its own panel).
+//! its element (paper §3: the panels are not known yet, so every triangle is its own panel);
+//! a sewn mold's element has its triangle on the cut pattern instead ([`Element::from_plane`]).
 //! With shape-function gradients `∇N_a` (rows of `Dm⁻¹`, `∇N0 = −∇N1 − ∇N2`), the
 //! deformation gradient is `F = Σ_a x_a ⊗ ∇N_a` (3×2), `C = FᵀF`, `E = ½(C − I)`.
 //!

@@ -6,9 +6,10 @@
 //! future work).
 //!
 //! - [`material`]: the `Material` trait and the isotropic St. Venant–Kirchhoff membrane
-//!   (Young's modulus Y in N/m, Poisson ratio ν; the paper's Eq. 2).
+//!   (Young's modulus Y in N/m, Poisson ratio ν; the paper's Eq. 2), its tension-field
+//!   relaxation, and the woven fabric of the check (warp, weft, shear; paper §7.4).
 //! - [`element`]: constant-strain triangles; each target triangle flattened isometrically is its
-//!   own rest shape; PSD-projected Hessians.
+//!   own rest shape, or a sewn mold's triangle on its pattern piece; PSD-projected Hessians.
 //! - [`hydrostatic`]: the infill pressure as a conservative potential, exact for faces crossing
 //!   the fill level.
 //! - [`loads`]: head pressure, self weight, support planes (log-barrier contact).
@@ -18,7 +19,8 @@
 //! - [`relax`]: nonlinear block Gauss–Seidel on the vertices a Newton step sent too far.
 //! - [`coarse`]: the coarse start (the equilibrium of a simplified mold as the fine solve's
 //!   starting point).
-//! - [`scenario`]: the one-shot [`simulate`] with suspension modes and precondition checks.
+//! - [`scenario`]: the one-shot [`simulate`] with suspension modes and precondition checks, and
+//!   [`simulate_sewn`] for a mold sewn from patterns.
 //!
 //! ```
 //! use clothcast_mesh::shapes;

@@ -79,6 +79,8 @@ pub struct ValidationSummary {
     pub warp_stretch_max: f64,
     /// Largest stretch along the weft.
     pub weft_stretch_max: f64,
+    /// The Newton solver's details (as `simulation.solver`).
+    pub solver: clothcast_sim::newton::SolveStats,
     /// Seconds.
     pub seconds: f64,
 }
@@ -253,6 +255,7 @@ pub fn run(
         shear_over_5deg_share: visible / area,
         warp_stretch_max: warp_stretch.iter().copied().fold(0.0, f64::max),
         weft_stretch_max: weft_stretch.iter().copied().fold(0.0, f64::max),
+        solver: s.solver.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     };
     progress.say(format!(
