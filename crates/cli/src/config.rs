@@ -72,11 +72,37 @@ pub struct ValidationSection {
     pub weft_stiffness: Option<f64>,
     /// In-plane shear modulus over √(warp · weft stiffness).
     pub shear_ratio: f64,
+    /// A measured fabric instead: the name of a built-in Wang et al. 2011 woven fabric
+    /// ([`WOR11_FABRICS`]) or the path of a file in their JSON layout (relative to the scenario
+    /// file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fabric: Option<String>,
+    /// Multiplies every stiffness of `fabric`; absent: the factor that gives its yarns' small-strain
+    /// stiffnesses a geometric mean of `[material] youngs_modulus` (the garment fabrics of that
+    /// database are some 12–290 times softer than the default 50 kN/m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fabric_scale: Option<f64>,
 }
+
+/// The built-in woven fabrics of Wang et al. 2011 (`data/materials/wor11`), by name.
+pub const WOR11_FABRICS: [(&str, &str); 5] = [
+    ("11oz-black-denim", include_str!("../../../data/materials/wor11/11oz-black-denim.json")),
+    ("pink-ribbon-brown", include_str!("../../../data/materials/wor11/pink-ribbon-brown.json")),
+    ("royal-target", include_str!("../../../data/materials/wor11/royal-target.json")),
+    ("tango-red-jet-set", include_str!("../../../data/materials/wor11/tango-red-jet-set.json")),
+    ("white-dots-on-blk", include_str!("../../../data/materials/wor11/white-dots-on-blk.json")),
+];
 
 impl Default for ValidationSection {
     fn default() -> Self {
-        Self { enabled: true, warp_stiffness: None, weft_stiffness: None, shear_ratio: 0.03 }
+        Self {
+            enabled: true,
+            warp_stiffness: None,
+            weft_stiffness: None,
+            shear_ratio: 0.03,
+            fabric: None,
+            fabric_scale: None,
+        }
     }
 }
 
@@ -597,6 +623,14 @@ impl Config {
         {
             cfg.mesh.path = Some(path.parent().unwrap_or(Path::new(".")).join(p));
         }
+        // A fabric file (not a built-in name) relative to the scenario file.
+        if let Some(f) = &cfg.validation.fabric
+            && !WOR11_FABRICS.iter().any(|(n, _)| n == f)
+            && Path::new(f).is_relative()
+        {
+            let joined = path.parent().unwrap_or(Path::new(".")).join(f);
+            cfg.validation.fabric = Some(joined.display().to_string());
+        }
         Ok(cfg)
     }
 
@@ -737,6 +771,18 @@ impl Config {
             positive("validation", "weft_stiffness", k)?;
         }
         positive("validation", "shear_ratio", v.shear_ratio)?;
+        if let Some(k) = v.fabric_scale {
+            positive("validation", "fabric_scale", k)?;
+        }
+        if v.fabric.is_some() && (v.warp_stiffness.is_some() || v.weft_stiffness.is_some()) {
+            let key = if v.warp_stiffness.is_some() { "warp_stiffness" } else { "weft_stiffness" };
+            return Err(err(
+                "validation",
+                key,
+                format!("{:?}", v.warp_stiffness.or(v.weft_stiffness).unwrap_or_default()),
+                "give either a measured fabric or the stiffnesses, not both",
+            ));
+        }
         Ok(())
     }
 }

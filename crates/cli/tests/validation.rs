@@ -115,3 +115,62 @@ fn developable_pieces_of_an_isotropic_like_weave_cast_the_design() {
     assert!(rel(dev[0]) < 0.01, "{dev:?}");
     assert!(rel(dev[1]) < 0.08, "{dev:?}");
 }
+
+/// A measured fabric (Wang et al. 2011, built in by name or read from a file next to the
+/// scenario): its yarns' ratio, stiffening and shear as measured, scaled to the simulation's
+/// stiffness unless `fabric_scale` says otherwise; a stiffer weft along the stretch is pointed
+/// out; bad fabrics are input errors naming the key.
+#[test]
+fn measured_fabrics_by_name_or_file() {
+    let out = tmpdir("validation-denim");
+    let t = run_configured("run", &out, "[validation]\nfabric = \"11oz-black-denim\"\n", &[], 0);
+    let v = &summary(&out)["validation"];
+    assert_eq!(v["converged"], true, "{v}");
+    let f = &v["fabric"];
+    assert_eq!(f["source"], "11oz-black-denim");
+    let (warp, weft) = (f["warp_stiffness"].as_f64().unwrap(), f["weft_stiffness"].as_f64().unwrap());
+    // Matched to [material] youngs_modulus; the denim's weft 4.94 times its warp (1013.9/205.4).
+    assert!(((warp * weft).sqrt() / 50_000.0 - 1.0).abs() < 1e-9, "{f}");
+    assert!((weft / warp - 1013.88629 / 205.352005).abs() < 1e-6, "{f}");
+    assert!(f["warp_stiffness_stretched"].as_f64().unwrap() > warp);
+    assert!(f["weft_stiffness_stretched"].as_f64().unwrap() > weft);
+    assert_mentions(&t, "weft is 4.9 times as stiff as its warp");
+
+    // A file relative to the scenario, at its own scale: k = 2 · 25 · the table's.
+    let out = tmpdir("validation-fabric-file");
+    std::fs::write(
+        out.join("canvas.json"),
+        r#"{"density": 0.3, "stretching": [[1000, 0, 900, 80], [1100, 0, 950, 90], [1, 2, 3, 4], [1, 2, 3, 4], [1, 2, 3, 4], [1000, 0, 1000, 80]]}"#,
+    )
+    .unwrap();
+    run_configured(
+        "run",
+        &out,
+        "[pattern]\nwarp_along = \"either\"\n[validation]\nfabric = \"canvas.json\"\nfabric_scale = 25.0\n",
+        &[],
+        0,
+    );
+    let f = &summary(&out)["validation"]["fabric"];
+    assert_eq!(f["warp_stiffness"], 50_000.0);
+    assert_eq!(f["weft_stiffness"], 45_000.0);
+    assert_eq!(f["warp_stiffness_stretched"], 55_000.0);
+    assert_eq!(f["weft_stiffness_stretched"], 50_000.0);
+    assert_eq!(f["shear_modulus"], 1000.0);
+
+    for (toml, needle) in [
+        ("fabric = \"no-such-fabric\"\n", "not a built-in fabric"),
+        ("fabric = \"canvas.json\"\nwarp_stiffness = 1e5\n", "validation.warp_stiffness"),
+        ("fabric = \"bad.json\"\n", "not a WOR11 fabric file"),
+        ("fabric = \"short.json\"\n", "6 rows of 4"),
+        ("fabric = \"11oz-black-denim\"\nfabric_scale = 0.0\n", "validation.fabric_scale"),
+    ] {
+        // Refused before any work: nothing written.
+        let bad = tmpdir("validation-bad-fabric");
+        std::fs::copy(out.join("canvas.json"), bad.join("canvas.json")).unwrap();
+        std::fs::write(bad.join("bad.json"), "{\"stretching\": ").unwrap();
+        std::fs::write(bad.join("short.json"), "{\"stretching\": [[1, 2, 3, 4]]}").unwrap();
+        let t = run_configured("run", &bad, &format!("[validation]\n{toml}"), &[], 2);
+        assert_mentions(&t, needle);
+        assert!(!bad.join("summary.json").exists() && !bad.join("deformed.ply").exists());
+    }
+}

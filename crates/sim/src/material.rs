@@ -213,70 +213,122 @@ impl Material for WrinklingStVenantKirchhoff {
 /// A woven fabric as two families of yarns, warp along the material frame's first axis and
 /// weft along its second, held together by a weave that resists shearing (the paper's §7.4
 /// validation uses the orthotropic model of Wang et al. 2011, ALGORITHMS.md §11; this is its
-/// orthotropic energy, with constant stiffnesses, without the warp–weft coupling, and with the
-/// yarns' compression relaxed). With Green strains `E11` (warp), `E22` (weft), `γ = 2 E12` and
-/// `c` the compression fraction:
+/// orthotropic energy without the warp–weft coupling, with each yarn's stiffness depending on
+/// its own stretch, and with the yarns' compression relaxed). With Green strains `E11` (warp),
+/// `E22` (weft), `γ = 2 E12`:
 ///
-/// `W = ½ k_warp E11² (× c where E11 < 0) + ½ k_weft E22² (× c where E22 < 0) + ½ G γ²`,
+/// `W = Φ_warp(E11) + Φ_weft(E22) + ½ G γ²`,
 ///
-/// so `k_warp`, `k_weft` are the tensile stiffnesses (N/m) of a 1 m strip along each yarn
-/// (WOR11's k0 and k2) and `G` the in-plane shear modulus (k3/4). A yarn in compression
-/// buckles out of the weave and keeps only a small fraction `c` of its stiffness (as the
-/// tension-field model lets an isotropic membrane wrinkle; with `c = 0` a region slack in both
-/// yarns could crumple freely, which a static solve cannot settle: a fan of thin triangles with
-/// one warp direction, a cylinder's flat cap, stalled at a relative residual of 10⁻² without
-/// it). WOR11's coupling k1 is left out: it is below 3% of √(k0 k2) for three of its five woven
-/// fabrics, and a coupling of buckling yarns (k1 max(E11, 0) max(E22, 0)) has a gradient that
-/// jumps where one yarn goes slack, which stalled the sewn built-in example at a relative
-/// residual of 3·10⁻⁴. The energy is C¹ and convex in E, its tangent diagonal and PSD.
+/// where a yarn's stress is WOR11's `σ = k(E) E`, its energy `Φ(E) = ∫₀^E k(e) e de`, and its
+/// stiffness `k` rises linearly in the stretch `s = √(1 + 2E)` from its small-strain value at
+/// s = 1 to its stretched value at s ≥ 7/6 (WOR11's strain coordinate `t = clamp(6(s − 1), 0,
+/// 1)` between its rest row and its row along that yarn). `k_warp`, `k_weft` are the tensile
+/// stiffnesses (N/m) of a 1 m strip along each yarn and `G` the in-plane shear modulus
+/// (WOR11's k0, k2 and k3/4). A yarn in compression buckles out of the weave and keeps only a
+/// small fraction `c` of its small-strain stiffness (as the tension-field model lets an
+/// isotropic membrane wrinkle; with `c = 0` a region slack in both yarns could crumple freely,
+/// which a static solve cannot settle: a fan of thin triangles with one warp direction, a
+/// cylinder's flat cap, stalled at a relative residual of 10⁻² without it). WOR11's coupling k1
+/// is left out: it is below 3% of √(k0 k2) for three of its five woven fabrics, and a coupling
+/// of buckling yarns (k1 max(E11, 0) max(E22, 0)) has a gradient that jumps where one yarn goes
+/// slack, which stalled the sewn built-in example at a relative residual of 3·10⁻⁴. The energy
+/// is C¹ and, for yarns that stiffen (or keep their stiffness) as they stretch, convex in E with
+/// a diagonal PSD tangent (a softening yarn's tangent is floored at zero).
 ///
 /// The material frame of a face is its rest element's: [`crate::element::Element::from_plane`]
 /// on the pattern piece, whose +u is the warp.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WovenFabric {
-    /// Tensile stiffness along the warp (N/m).
+    /// Small-strain tensile stiffness along the warp (N/m).
     pub warp: f64,
-    /// Tensile stiffness along the weft (N/m).
+    /// Small-strain tensile stiffness along the weft (N/m).
     pub weft: f64,
+    /// The warp's stiffness from a stretch of 7/6 on (N/m; `warp` for a linear yarn).
+    pub warp_stretched: f64,
+    /// The weft's stiffness from a stretch of 7/6 on (N/m).
+    pub weft_stretched: f64,
     /// In-plane shear modulus (N/m).
     pub shear: f64,
-    /// A yarn's stiffness in compression as a fraction of its tensile stiffness
+    /// A yarn's stiffness in compression as a fraction of its small-strain stiffness
     /// ([`WovenFabric::COMPRESSION`]).
     pub compression: f64,
 }
+
+/// The stretch from which a yarn has its stretched stiffness (WOR11: t = 6(s − 1) reaches 1).
+const STRETCHED_AT: f64 = 7.0 / 6.0;
 
 impl WovenFabric {
     /// The default [`WovenFabric::compression`].
     pub const COMPRESSION: f64 = 0.01;
 
-    /// The fabric, or a message naming the value that is not a positive finite number.
+    /// A fabric of constant stiffnesses, or a message naming the value that is not a positive
+    /// finite number.
     pub fn new(warp: f64, weft: f64, shear: f64) -> Result<Self, String> {
-        for (name, v) in [("warp stiffness", warp), ("weft stiffness", weft), ("shear modulus", shear)] {
+        Self::stiffening(warp, weft, warp, weft, shear)
+    }
+
+    /// A fabric whose yarns' stiffnesses go from `warp`, `weft` at rest to `warp_stretched`,
+    /// `weft_stretched` at a stretch of 7/6, or a message naming a value that is not a positive
+    /// finite number.
+    pub fn stiffening(
+        warp: f64,
+        weft: f64,
+        warp_stretched: f64,
+        weft_stretched: f64,
+        shear: f64,
+    ) -> Result<Self, String> {
+        for (name, v) in [
+            ("warp stiffness", warp),
+            ("weft stiffness", weft),
+            ("stretched warp stiffness", warp_stretched),
+            ("stretched weft stiffness", weft_stretched),
+            ("shear modulus", shear),
+        ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{name} must be positive and finite (got {v})"));
             }
         }
-        Ok(Self { warp, weft, shear, compression: Self::COMPRESSION })
+        Ok(Self { warp, weft, warp_stretched, weft_stretched, shear, compression: Self::COMPRESSION })
     }
 
-    /// A yarn's stiffness at its strain: `k` in tension, `compression · k` in compression.
+    /// A yarn's energy density, stress and tangent at its Green strain `e`, for stiffness `k0`
+    /// at rest and `k1` from a stretch of 7/6 on.
     #[inline]
-    fn yarn(&self, k: f64, e: f64) -> f64 {
-        if e > 0.0 { k } else { self.compression * k }
+    fn yarn(&self, k0: f64, k1: f64, e: f64) -> (f64, f64, f64) {
+        if e <= 0.0 {
+            let k = self.compression * k0;
+            return (0.5 * k * e * e, k * e, k);
+        }
+        let d = k1 - k0;
+        if d == 0.0 {
+            return (0.5 * k0 * e * e, k0 * e, k0);
+        }
+        let e1 = 0.5 * (STRETCHED_AT * STRETCHED_AT - 1.0);
+        // ∫₀^E e √(1 + 2e) de = (s − 1)² (3s³ + 6s² + 4s + 2) / 30, s = √(1 + 2E), written
+        // without cancellation (s − 1 = 2E / (s + 1)).
+        let integral = |e: f64| {
+            let s = (1.0 + 2.0 * e).sqrt();
+            let sm1 = 2.0 * e / (s + 1.0);
+            sm1 * sm1 * (((3.0 * s + 6.0) * s + 4.0) * s + 2.0) / 30.0
+        };
+        // k(e) = k0 + 6d (s − 1) = (k0 − 6d) + 6d s up to e1.
+        let phi = |e: f64| 0.5 * (k0 - 6.0 * d) * e * e + 6.0 * d * integral(e);
+        if e >= e1 {
+            return (phi(e1) + 0.5 * k1 * (e * e - e1 * e1), k1 * e, k1);
+        }
+        let s = (1.0 + 2.0 * e).sqrt();
+        let k = k0 + 6.0 * d * (2.0 * e / (s + 1.0));
+        (phi(e), k * e, (k + 6.0 * d * e / s).max(0.0))
     }
 }
 
 impl Material for WovenFabric {
-    fn response(&self, face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
-        let (kw, kf) = (self.yarn(self.warp, e[0]), self.yarn(self.weft, e[1]));
-        let stress = Vector3::new(kw * e[0], kf * e[1], self.shear * e[2]);
+    fn response(&self, _face: FaceId, e: &Vector3<f64>) -> MaterialResponse {
+        let (ww, sw, kw) = self.yarn(self.warp, self.warp_stretched, e[0]);
+        let (wf, sf, kf) = self.yarn(self.weft, self.weft_stretched, e[1]);
+        let stress = Vector3::new(sw, sf, self.shear * e[2]);
         let tangent = Matrix3::from_diagonal(&Vector3::new(kw, kf, self.shear));
-        MaterialResponse { energy: self.energy(face, e), stress, tangent }
-    }
-    fn energy(&self, _face: FaceId, e: &Vector3<f64>) -> f64 {
-        0.5 * (self.yarn(self.warp, e[0]) * e[0] * e[0]
-            + self.yarn(self.weft, e[1]) * e[1] * e[1]
-            + self.shear * e[2] * e[2])
+        MaterialResponse { energy: ww + wf + 0.5 * self.shear * e[2] * e[2], stress, tangent }
     }
     fn reference_stiffness(&self) -> f64 {
         self.warp.max(self.weft)
@@ -377,6 +429,45 @@ mod tests {
             }
             assert!(r.tangent.symmetric_eigenvalues().min() > -1e-9);
         }
+        // Stiffening yarns (a WOR11 fabric): derivatives in every regime, the stress k(E)·E,
+        // the stretched stiffness from a stretch of 7/6 on (E = 0.1806), continuity there.
+        let st = WovenFabric::stiffening(400.0, 2000.0, 460.0, 2100.0, 30.0).unwrap();
+        let e1 = 0.5 * ((7.0f64 / 6.0).powi(2) - 1.0);
+        for e in [
+            Vector3::new(1e-4, 2e-4, 0.0),
+            Vector3::new(0.05, 0.12, 0.01),
+            Vector3::new(0.3, -0.05, 0.03),
+            Vector3::new(e1 - 1e-9, e1 + 1e-9, -0.2),
+        ] {
+            let r = st.response(f, &e);
+            let h = 1e-7 * (1.0 + e[0].abs().max(e[1].abs()));
+            for j in 0..3 {
+                let (mut ep, mut em) = (e, e);
+                ep[j] += h;
+                em[j] -= h;
+                let ds = (st.energy(f, &ep) - st.energy(f, &em)) / (2.0 * h);
+                assert!(
+                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
+                    "{e:?} dW/dE{j}: {ds} vs {}",
+                    r.stress[j]
+                );
+                if (e[j] - e1).abs() > 1e-6 {
+                    let dc = (st.response(f, &ep).stress[j] - st.response(f, &em).stress[j]) / (2.0 * h);
+                    assert!(
+                        (dc - r.tangent[(j, j)]).abs() < 1e-4 * (1.0 + dc.abs()),
+                        "{e:?} C{j}{j}: {dc} vs {}",
+                        r.tangent[(j, j)]
+                    );
+                }
+            }
+        }
+        let r = st.response(f, &Vector3::new(0.3, 0.0, 0.0));
+        assert!((r.stress[0] - 460.0 * 0.3).abs() < 1e-9 && r.tangent[(0, 0)] == 460.0);
+        let r = st.response(f, &Vector3::new(0.05, 0.0, 0.0));
+        let k = 400.0 + 60.0 * 6.0 * ((1.1f64).sqrt() - 1.0);
+        assert!((r.stress[0] - k * 0.05).abs() < 1e-9, "{} vs {}", r.stress[0], k * 0.05);
+        assert!(WovenFabric::stiffening(400.0, 2000.0, 0.0, 2100.0, 30.0).unwrap_err().contains("stretched warp"));
+
         // A compressed yarn carries a hundredth of what it would in tension; a stretched one k·E.
         let r = m.response(f, &Vector3::new(0.1, -0.1, 0.0));
         assert!((r.stress[1] - 0.01 * 2.0e4 * -0.1).abs() < 1e-9, "{}", r.stress[1]);

@@ -58,6 +58,10 @@ pub enum Until {
 pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Failure> {
     let t0 = Instant::now();
     let (cfg, repair) = resolve_scenario(args)?;
+    // The check's fabric (a file, perhaps) is input too: refused before any work.
+    if until >= Until::All && cfg.validation.enabled {
+        stages::validation::fabric(&cfg)?;
+    }
     let mut stages = Stages::default();
 
     let stage = progress.stage("loading mesh");

@@ -5,12 +5,13 @@
 //! deviates from the target (the paper's D_avg: each cast vertex's distance to the closest
 //! point of the target) and how much the weave shears (`cast.ply`, summary `validation`).
 
-use crate::config::{Config, SuspensionMode};
+use crate::config::{Config, SuspensionMode, WOR11_FABRICS};
 use crate::failure::{Blame, Failure};
 use crate::input::Input;
 use crate::progress::Progress;
 use crate::stages::patterns::PatternsResult;
 use anyhow::{Context, anyhow};
+use clothcast_flatten::WarpAlong;
 use clothcast_layout::Segmentation;
 use clothcast_mesh::Vec2 as Vector2;
 use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
@@ -25,13 +26,25 @@ use std::time::Instant;
 /// A face shears "visibly" beyond this angle between its yarns' right angle (degrees).
 const VISIBLE_SHEAR_DEG: f64 = 5.0;
 
+/// A yarn stretched beyond this, or a cast deviating by more than this share of the target's
+/// size on average, is warned about: the fabric is too soft for the mold (the default fabric
+/// stays below 1.18 and 0.02 on the built-in example, 2.1 and 0.17 on the 2 m cube).
+const TOO_SOFT_STRETCH: f64 = 2.5;
+const TOO_SOFT_DEVIATION: f64 = 0.25;
+
 /// The woven fabric the check used (N/m).
 #[derive(Clone, Debug, Serialize)]
 pub struct FabricSummary {
-    /// Tensile stiffness along the warp.
+    /// "constants" (`[validation]` stiffnesses) or the measured fabric's name or path.
+    pub source: String,
+    /// Tensile stiffness along the warp, at small strain.
     pub warp_stiffness: f64,
-    /// Tensile stiffness along the weft.
+    /// Tensile stiffness along the weft, at small strain.
     pub weft_stiffness: f64,
+    /// The warp's stiffness from a stretch of 7/6 on.
+    pub warp_stiffness_stretched: f64,
+    /// The weft's stiffness from a stretch of 7/6 on.
+    pub weft_stiffness_stretched: f64,
     /// In-plane shear modulus.
     pub shear_modulus: f64,
     /// A yarn's stiffness in compression over its tensile stiffness.
@@ -101,13 +114,58 @@ pub struct ValidationResult {
     pub summary: ValidationSummary,
 }
 
-/// The fabric of a configuration, or the input error naming what is wrong with it.
-pub fn fabric(cfg: &Config) -> Result<WovenFabric, Failure> {
+/// A measured fabric in Wang et al. 2011's JSON layout (as ARCSim reads it).
+#[derive(serde::Deserialize)]
+struct Wor11 {
+    stretching: Vec<Vec<f64>>,
+}
+
+/// The woven fabric of a measured WOR11 table, as ARCSim reads it (every stiffness doubled,
+/// negative ones clamped to zero), each scaled by `scale`: the warp's small-strain stiffness
+/// k0 and the weft's k2 from the rest row (0), their stretched ones from the rows along each
+/// yarn (1: 0°, 5: 90°), the shear modulus k3/4 from the rest row. `Err` names what is wrong.
+fn wor11_fabric(text: &str, scale: f64) -> Result<WovenFabric, String> {
+    let t: Wor11 = serde_json::from_str(text).map_err(|e| format!("not a WOR11 fabric file: {e}"))?;
+    if t.stretching.len() != 6 || t.stretching.iter().any(|r| r.len() != 4) {
+        return Err(format!(
+            "\"stretching\" must be 6 rows of 4 stiffnesses (k0 k1 k2 k3), got {} rows",
+            t.stretching.len()
+        ));
+    }
+    let k = |row: usize, col: usize| 2.0 * t.stretching[row][col].max(0.0) * scale;
+    WovenFabric::stiffening(k(0, 0), k(0, 2), k(1, 0), k(5, 2), k(0, 3) / 4.0)
+}
+
+/// The fabric of a configuration and where it came from, or the input error naming what is
+/// wrong with it.
+pub fn fabric(cfg: &Config) -> Result<(WovenFabric, String), Failure> {
     let v = &cfg.validation;
+    if let Some(name) = &v.fabric {
+        let text = match WOR11_FABRICS.iter().find(|(n, _)| n == name) {
+            Some((_, t)) => (*t).to_string(),
+            None => std::fs::read_to_string(name).map_err(|e| {
+                Failure::Input(anyhow!(
+                    "[validation] fabric = {name:?}: not a built-in fabric ({}) and not a readable file: {e}",
+                    WOR11_FABRICS.map(|(n, _)| n).join(", ")
+                ))
+            })?,
+        };
+        let named = |e: String| Failure::Input(anyhow!("[validation] fabric = {name:?}: {e}"));
+        let scale = match v.fabric_scale {
+            Some(k) => k,
+            None => {
+                let f = wor11_fabric(&text, 1.0).map_err(named)?;
+                cfg.material.youngs_modulus / (f.warp * f.weft).sqrt()
+            }
+        };
+        return Ok((wor11_fabric(&text, scale).map_err(named)?, name.clone()));
+    }
     let warp = v.warp_stiffness.unwrap_or(cfg.material.youngs_modulus);
     let weft = v.weft_stiffness.unwrap_or(cfg.material.youngs_modulus);
     let mean = (warp * weft).sqrt();
-    WovenFabric::new(warp, weft, v.shear_ratio * mean).map_err(|e| Failure::Input(anyhow!("[validation]: {e}")))
+    let f =
+        WovenFabric::new(warp, weft, v.shear_ratio * mean).map_err(|e| Failure::Input(anyhow!("[validation]: {e}")))?;
+    Ok((f, "constants".into()))
 }
 
 /// Each segmented face's triangle on its pattern piece as the piece lies on the roll (metres,
@@ -166,7 +224,24 @@ pub fn run(
     progress: &Progress,
 ) -> Result<ValidationResult, Failure> {
     let t0 = Instant::now();
-    let fabric = fabric(cfg)?;
+    let (fabric, source) = fabric(cfg)?;
+    // The stiffer yarn belongs along the largest stretch (README, The check).
+    let (warp, weft) = (fabric.warp, fabric.weft);
+    let against = match cfg.pattern.warp_along {
+        WarpAlong::Major => weft > 1.2 * warp,
+        WarpAlong::Minor => warp > 1.2 * weft,
+        WarpAlong::Either => false,
+    };
+    if against {
+        let (stiff, soft) = if weft > warp { ("weft", "warp") } else { ("warp", "weft") };
+        tracing::warn!(
+            "the fabric's {stiff} is {:.1} times as stiff as its {soft}, but [pattern] warp_along = \"{}\" puts the \
+             {soft} along the mold's largest stretch: \"{}\" would put the stiffer yarn there",
+            weft.max(warp) / weft.min(warp),
+            if weft > warp { "major" } else { "minor" },
+            if weft > warp { "minor" } else { "major" },
+        );
+    }
     let rest = pattern_triangles(seg, patterns)?;
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     if cfg.suspension.mode == SuspensionMode::Vertices {
@@ -236,8 +311,11 @@ pub fn run(
         newton_iterations: s.newton_iterations,
         residual_rel: s.residual_rel,
         fabric: FabricSummary {
+            source,
             warp_stiffness: fabric.warp,
             weft_stiffness: fabric.weft,
+            warp_stiffness_stretched: fabric.warp_stretched,
+            weft_stiffness_stretched: fabric.weft_stretched,
             shear_modulus: fabric.shear,
             compression_ratio: fabric.compression,
         },
@@ -258,6 +336,18 @@ pub fn run(
         solver: s.solver.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     };
+    // A fabric far too soft for the load: the mold balloons (with the level held at the top,
+    // the deeper it hangs the higher the pressure: there may be no equilibrium at all).
+    let stretch = summary.warp_stretch_max.max(summary.weft_stretch_max);
+    if stretch > TOO_SOFT_STRETCH || summary.deviation_mean_rel > TOO_SOFT_DEVIATION {
+        tracing::warn!(
+            "the check's fabric is too soft for this mold: it stretches up to {:.0}% and the cast deviates by {:.0}% of \
+             the target's size on average; a stiffer fabric ([validation], or fabric_scale for a measured one), a lower \
+             fill or supports",
+            100.0 * (stretch - 1.0),
+            100.0 * summary.deviation_mean_rel
+        );
+    }
     progress.say(format!(
         "check: the sewn mold {} in {} Newton iterations; the cast deviates from the target by {:.2} mm on average \
          (max {:.2} mm; stage 1's mold: {:.2} mm), weave shear {:.1}° on average (max {:.1}°, {:.0}% of the fabric \
