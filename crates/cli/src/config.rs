@@ -82,6 +82,11 @@ pub struct ValidationSection {
     /// database are some 12–290 times softer than the default 50 kN/m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fabric_scale: Option<f64>,
+    /// Axial stiffness of a seam (N) beyond the fabric's; absent: its two seam allowances'
+    /// fabric, 2 · `[pattern] seam_allowance_mm` · √(warp · weft stiffness); 0: seams no
+    /// stiffer than the fabric.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seam_stiffness: Option<f64>,
 }
 
 /// The built-in woven fabrics of Wang et al. 2011 (`data/materials/wor11`), by name.
@@ -102,6 +107,7 @@ impl Default for ValidationSection {
             shear_ratio: 0.03,
             fabric: None,
             fabric_scale: None,
+            seam_stiffness: None,
         }
     }
 }
@@ -773,6 +779,9 @@ impl Config {
         positive("validation", "shear_ratio", v.shear_ratio)?;
         if let Some(k) = v.fabric_scale {
             positive("validation", "fabric_scale", k)?;
+        }
+        if let Some(k) = v.seam_stiffness {
+            non_negative("validation", "seam_stiffness", k)?;
         }
         if v.fabric.is_some() && (v.warp_stiffness.is_some() || v.weft_stiffness.is_some()) {
             let key = if v.warp_stiffness.is_some() { "warp_stiffness" } else { "weft_stiffness" };

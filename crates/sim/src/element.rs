@@ -163,6 +163,66 @@ impl Element {
     }
 }
 
+/// A seam of a sewn mold along one edge of a face: a bar (the seam allowances' folded layers
+/// and the stitching) that carries tension along the edge, from corner `k` to corner `k + 1`
+/// of its face, with Green strain `ε = (l² − L²)/(2L²)` and energy `½ k L ε²`, where `k` is
+/// its axial stiffness (N) in tension and `compression · k` in compression (it buckles).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Bar {
+    /// Axial stiffness in tension (N); 0: no bar.
+    pub stiffness: f64,
+    /// Rest length L (m).
+    pub rest: f64,
+    /// Its stiffness in compression as a fraction of `stiffness`.
+    pub compression: f64,
+}
+
+impl Bar {
+    /// Energy, the gradient with respect to the far end (the near end's is its negative), and
+    /// the Hessian block of the far end with itself (the near end's is the same; their
+    /// coupling its negative), for the edge vector `d` (far − near). With `project`, the
+    /// geometric term's strain is taken at its positive part (a PSD block).
+    #[inline]
+    pub fn evaluate(&self, d: &Vec3, project: bool) -> (f64, Vec3, Matrix3<f64>) {
+        let l2 = self.rest * self.rest;
+        let eps = 0.5 * (d.norm_squared() - l2) / l2;
+        let k = if eps > 0.0 { self.stiffness } else { self.compression * self.stiffness };
+        let energy = 0.5 * k * self.rest * eps * eps;
+        let g = d * (k * eps / self.rest);
+        let geo = if project { eps.max(0.0) } else { eps };
+        let h = (d * d.transpose() / l2 + Matrix3::identity() * geo) * (k / self.rest);
+        (energy, g, h)
+    }
+
+    /// Energy alone.
+    #[inline]
+    pub fn energy(&self, d: &Vec3) -> f64 {
+        let l2 = self.rest * self.rest;
+        let eps = 0.5 * (d.norm_squared() - l2) / l2;
+        let k = if eps > 0.0 { self.stiffness } else { self.compression * self.stiffness };
+        0.5 * k * self.rest * eps * eps
+    }
+}
+
+/// The bars of a face (by edge: corner k to k + 1), added to its element's energy, gradient
+/// and Hessian; `None` where the face has none.
+#[inline]
+pub fn add_bars(bars: &[Bar; 3], p: &[Vec3; 3], project: bool, e: &mut f64, g: &mut Vec9, h: &mut Mat9) {
+    for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
+        let (i, j) = (k, (k + 1) % 3);
+        let (be, bg, bh) = b.evaluate(&(p[j] - p[i]), project);
+        *e += be;
+        let mut gi = g.fixed_rows_mut::<3>(3 * i);
+        gi -= bg;
+        let mut gj = g.fixed_rows_mut::<3>(3 * j);
+        gj += bg;
+        for (r, c, sign) in [(i, i, 1.0), (j, j, 1.0), (i, j, -1.0), (j, i, -1.0)] {
+            let mut blk = h.fixed_view_mut::<3, 3>(3 * r, 3 * c);
+            blk += bh * sign;
+        }
+    }
+}
+
 /// Closed-form eigen-decomposition of [[a, b], [b, c]]: (λ1 ≥ λ2, angle of λ1's eigenvector).
 #[inline]
 pub fn sym2_eigen(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
@@ -205,6 +265,37 @@ pub fn positive_part(s: &Matrix2<f64>) -> Matrix2<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seam_bar_derivatives() {
+        let b = Bar { stiffness: 1500.0, rest: 0.02, compression: 0.01 };
+        let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.021, 0.003, -0.001), Vec3::new(0.01, 0.02, 0.0)];
+        for q in [p, [p[0], p[0] + (p[1] - p[0]) * 0.9, p[2]]] {
+            let bars = [b, Bar::default(), Bar::default()];
+            let (mut e, mut g, mut h) = (0.0, Vec9::zeros(), Mat9::zeros());
+            add_bars(&bars, &q, false, &mut e, &mut g, &mut h);
+            assert!((e - b.energy(&(q[1] - q[0]))).abs() < 1e-15);
+            let flat = |q: &[Vec3; 3]| {
+                let (mut e, mut g, mut h) = (0.0, Vec9::zeros(), Mat9::zeros());
+                add_bars(&bars, q, false, &mut e, &mut g, &mut h);
+                (e, g)
+            };
+            let step = 1e-8;
+            for c in 0..9 {
+                let (mut qp, mut qm) = (q, q);
+                qp[c / 3][c % 3] += step;
+                qm[c / 3][c % 3] -= step;
+                let ((ep, gp), (em, gm)) = (flat(&qp), flat(&qm));
+                assert!(((ep - em) / (2.0 * step) - g[c]).abs() < 1e-6 * (1.0 + g[c].abs()), "g{c}");
+                for r in 0..9 {
+                    let fd = (gp[r] - gm[r]) / (2.0 * step);
+                    assert!((fd - h[(r, c)]).abs() < 1e-4 * (1.0 + h[(r, c)].abs()), "h{r}{c}: {fd} vs {}", h[(r, c)]);
+                }
+            }
+            // The third corner takes no part.
+            assert!(g.fixed_rows::<3>(6).norm() == 0.0);
+        }
+    }
     use crate::material::StVenantKirchhoff;
     use nalgebra::Rotation3;
 

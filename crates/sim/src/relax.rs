@@ -259,15 +259,26 @@ mod tests {
     }
 
     /// A vertex's local energy, gradient and Hessian block (faces, liquid, head pressure,
-    /// weight, a support's barrier) agree with finite differences, and with the total energy's
-    /// change when the vertex alone moves.
+    /// weight, a support's barrier, seam bars) agree with finite differences, and with the
+    /// total energy's change when the vertex alone moves.
     #[test]
     fn vertex_terms_match_finite_differences() {
+        use crate::element::Bar;
         use crate::loads::{Barrier, Plane};
         let (mesh, mat, loads, c) = sphere_problem();
         let support = Plane::new(Vec3::new(0.0, 0.0, -0.2035), Vec3::new(0.05, 0.0, 1.0));
         let barrier = Barrier { dhat: 0.01, kappa: 1e4 };
-        let sys = System::new(&mesh, &mat, loads, &c, vec![support], Some(barrier));
+        let mut sys = System::new(&mesh, &mat, loads, &c, vec![support], Some(barrier));
+        // A stretched bar on every face's second edge.
+        sys.set_bars(
+            mesh.face_ids()
+                .map(|f| {
+                    let p = mesh.face_positions(f);
+                    let bar = Bar { stiffness: 2000.0, rest: 0.9 * (p[2] - p[1]).norm(), compression: 0.01 };
+                    [Bar::default(), bar, Bar::default()]
+                })
+                .collect(),
+        );
         // A strained state, the lowest vertex within the barrier's reach.
         let x: Vec<Vec3> = mesh.positions().iter().map(|p| Vec3::new(p.x * 1.04, p.y * 0.97, p.z * 1.01)).collect();
         let v = (0..x.len()).min_by(|&a, &b| x[a].z.total_cmp(&x[b].z)).expect("vertices");

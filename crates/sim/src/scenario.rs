@@ -2,14 +2,14 @@
 
 use crate::coarse::{CoarseOptions, CoarseStats, Problem, coarse_start};
 use crate::constraints::Constraints;
-use crate::element::Element;
+use crate::element::{Bar, Element};
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
 use crate::material::Material;
 use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve};
 use crate::system::{Loads, System};
 use clothcast_mesh::sparse::SolveError;
-use clothcast_mesh::{FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
+use clothcast_mesh::{EdgeId, FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
 use nalgebra::Vector2;
 use serde::Serialize;
 use std::time::Instant;
@@ -358,12 +358,15 @@ pub fn simulate(
 /// is clamped, and what the scenario's fill level and supports refer to), `rest` the triangle
 /// of each face on its cut pattern piece (metres, counter-clockwise, the piece's +u along the
 /// warp: the material frame of [`crate::material::WovenFabric`]). The seams are the mesh's
-/// shared edges. Solved from `start` (e.g. an earlier equilibrium carried over; a vertex with a
-/// constrained direction starts where the mesh has it) or from the mesh, without the coarse
-/// start (a simplified copy has no pattern triangles).
+/// shared edges; `seams` lists the edges sewn (each with its axial stiffness in N, 0 for a
+/// seam no stiffer than the fabric), which become [`Bar`]s whose rest length is the mean of the
+/// edge's lengths on its two pieces. Solved from `start` (e.g. an earlier equilibrium carried
+/// over; a vertex with a constrained direction starts where the mesh has it) or from the mesh,
+/// without the coarse start (a simplified copy has no pattern triangles).
 pub fn simulate_sewn(
     mesh: &Mesh,
     rest: &FaceData<[Vector2<f64>; 3]>,
+    seams: &[(EdgeId, f64)],
     start: Option<Vec<Vec3>>,
     material: &dyn Material,
     sc: &Scenario,
@@ -374,12 +377,43 @@ pub fn simulate_sewn(
         .map(|f| Element::from_plane(&rest[f]).ok_or(SimError::FoldedRest { face: f }))
         .collect::<Result<Vec<_>, _>>()?;
     assert!(start.as_ref().is_none_or(|s| s.len() == mesh.n_vertices()), "one start position per vertex");
-    simulate_with_rest(mesh, Some((elements, start)), material, sc, progress)
+    let mut bars = vec![[Bar::default(); 3]; if seams.iter().any(|s| s.1 > 0.0) { mesh.n_faces() } else { 0 }];
+    for &(e, stiffness) in seams.iter().filter(|s| s.1 > 0.0) {
+        let ends = mesh.edge_vertices(e);
+        let (f0, f1) = mesh.edge_faces(e);
+        // The edge's corners in a face, and its length on that face's piece.
+        let local = |f: FaceId| {
+            let vs = mesh.face_vertices(f);
+            let k = (0..3).find(|&k| {
+                let (a, b) = (vs[k], vs[(k + 1) % 3]);
+                (a == ends[0] && b == ends[1]) || (a == ends[1] && b == ends[0])
+            });
+            k.map(|k| (k, (rest[f][(k + 1) % 3] - rest[f][k]).norm()))
+        };
+        let Some((k, l0)) = local(f0) else { continue };
+        let l = match f1.and_then(local) {
+            Some((_, l1)) => 0.5 * (l0 + l1),
+            None => l0,
+        };
+        bars[f0.idx()][k] = Bar { stiffness, rest: l, compression: SEAM_COMPRESSION };
+    }
+    simulate_with_rest(mesh, Some(Sewn { elements, start, bars }), material, sc, progress)
+}
+
+/// A seam bar's stiffness in compression over its tensile stiffness (it buckles, as the woven
+/// fabric's yarns do: [`crate::material::WovenFabric::COMPRESSION`]).
+const SEAM_COMPRESSION: f64 = crate::material::WovenFabric::COMPRESSION;
+
+/// What a sewn mold brings to the solve: its rest elements, its start, its seam bars.
+struct Sewn {
+    elements: Vec<Element>,
+    start: Option<Vec<Vec3>>,
+    bars: Vec<[Bar; 3]>,
 }
 
 fn simulate_with_rest(
     mesh: &Mesh,
-    rest: Option<(Vec<Element>, Option<Vec<Vec3>>)>,
+    rest: Option<Sewn>,
     material: &dyn Material,
     sc: &Scenario,
     progress: &mut dyn FnMut(&IterationReport),
@@ -455,7 +489,8 @@ fn simulate_with_rest(
             };
             coarse_start(&pb, co.ratio)
         });
-    let (elements, start) = rest.unwrap_or_else(|| (Element::for_mesh(mesh), None));
+    let Sewn { elements, start, bars } =
+        rest.unwrap_or_else(|| Sewn { elements: Element::for_mesh(mesh), start: None, bars: Vec::new() });
     let start = start.map(|mut x| {
         for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
             x[v.idx()] = target[v.idx()];
@@ -464,6 +499,9 @@ fn simulate_with_rest(
     });
     let mut sys =
         System::with_elements(mesh, elements, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
+    if !bars.is_empty() {
+        sys.set_bars(bars);
+    }
     let res = match (&mut coarse, start) {
         (_, Some(x)) => solve(&mut sys, x, &sc.newton, progress)?,
         (Some((Some(x), st)), None) => {

@@ -9,7 +9,7 @@
 //! atomics). Per-face results go to reusable buffers.
 
 use crate::constraints::Constraints;
-use crate::element::{Element, Mat9, Vec9};
+use crate::element::{Bar, Element, Mat9, Vec9, add_bars};
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane, face_volume};
 use crate::material::Material;
@@ -143,6 +143,8 @@ pub struct System<'a> {
     corners: Vec<u32>,
     /// Mean edge length of the mesh (m).
     mean_edge: f64,
+    /// Seam bars by face id ([`System::set_bars`]); empty: none.
+    bars: Vec<[Bar; 3]>,
     /// Storage position of each face. Faces are stored sorted by their lowest-numbered vertex, so that
     /// the value slots of one vertex's rows, summed one after the other, read nearby entries
     /// of `hess` (kitten's gather was bound by the latency of those reads), and the per-face
@@ -320,7 +322,15 @@ impl<'a> System<'a> {
             corners,
             spare_hessian: None,
             mean_edge: mesh.mean_edge_length(),
+            bars: Vec::new(),
         }
+    }
+
+    /// Add seam bars: per face id, the bars along its three edges (corner k to k + 1; a bar
+    /// of zero stiffness is none). Each seam edge belongs to one of its faces.
+    pub fn set_bars(&mut self, bars: Vec<[Bar; 3]>) {
+        assert_eq!(bars.len(), self.mesh.n_faces(), "bars for every face");
+        self.bars = bars;
     }
 
     /// Mean edge length of the mesh (m).
@@ -520,6 +530,11 @@ impl<'a> System<'a> {
     #[inline]
     fn face_energy(&self, element: &Element, f: FaceId, p: &[Vec3; 3], s: f64) -> f64 {
         let mut e = element.energy(self.material, f, p);
+        if let Some(bars) = self.bars.get(f.idx()) {
+            for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
+                e += b.energy(&(p[(k + 1) % 3] - p[k]));
+            }
+        }
         if let Some(h) = &self.loads.hydrostatic {
             e -= s * h.work(p);
         }
@@ -615,6 +630,21 @@ impl<'a> System<'a> {
             let (mut fe, fg, fh) = sf.element.corner(self.material, sf.face, &p, a);
             g += fg;
             h += fh;
+            // Seam bars: the face's whole share of energy, corner a's derivatives.
+            if let Some(bars) = self.bars.get(sf.face.idx()) {
+                for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
+                    let (i, j) = (k, (k + 1) % 3);
+                    let (be, bg, bh) = b.evaluate(&(p[j] - p[i]), true);
+                    fe += be;
+                    if a == i {
+                        g -= bg;
+                        h += bh;
+                    } else if a == j {
+                        g += bg;
+                        h += bh;
+                    }
+                }
+            }
             if let Some((w, wg, wh)) = self.loads.hydrostatic.as_ref().and_then(|hy| hy.work_corner(&p, a)) {
                 fe -= s * w;
                 g -= wg * s;
@@ -694,10 +724,14 @@ impl<'a> System<'a> {
         let loads = &self.loads;
         let center = self.volume_center;
         let frames = &self.frames;
+        let bars = &self.bars;
         self.buf.par_iter_mut().zip(self.hess.par_chunks_mut(PICKS)).zip(&self.stored).for_each(|((out, hout), sf)| {
             let f = sf.face;
             let p = sf.vertices.map(|v| x[v.idx()]);
             let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, material.project_geometric());
+            if let Some(b) = bars.get(f.idx()) {
+                add_bars(b, &p, material.project_geometric(), &mut e, &mut g, &mut h);
+            }
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &loads.hydrostatic

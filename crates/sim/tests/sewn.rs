@@ -39,7 +39,7 @@ fn isotropic_equivalent_weave_matches_stvk_on_an_inflated_sphere() {
     // Warp directions that vary from face to face (a swirl about a tilted axis).
     let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
     let rest = patterns(&mesh, |c, n| axis.cross(&c) + n.cross(&c) * 3.0 + Vec3::new(1.0, 0.2, 0.1));
-    let b = simulate_sewn(&mesh, &rest, None, &woven, &sc, &mut |_| {}).unwrap();
+    let b = simulate_sewn(&mesh, &rest, &[], None, &woven, &sc, &mut |_| {}).unwrap();
     assert!(a.stats.converged && b.stats.converged);
     let (ca, cb) = (centroid(a.positions.as_slice()), centroid(b.positions.as_slice()));
     let worst =
@@ -89,7 +89,7 @@ fn woven_cylinder_matches_closed_form_for_either_warp_direction() {
                 Vec3::z()
             }
         });
-        let r = simulate_sewn(&mesh, &rest, None, &fabric, &sc, &mut |_| {}).unwrap();
+        let r = simulate_sewn(&mesh, &rest, &[], None, &fabric, &sc, &mut |_| {}).unwrap();
         assert!(r.stats.converged, "{:?}", r.stats.termination);
         let ring = |j: usize| -> Vec<Vec3> { (0..n).map(|i| r.positions[VertexId::new(j * n + i)]).collect() };
         let (a, b) = (ring(24), ring(36));
@@ -116,9 +116,75 @@ fn folded_pattern_triangle_is_refused() {
     rest[clothcast_mesh::FaceId::new(7)].swap(1, 2);
     let fabric = WovenFabric::new(5.0e4, 5.0e4, 1.0e3).unwrap();
     let sc = Scenario { infill_density: 0.0, head_pressure: 100.0, suspension: Suspension::None, ..Default::default() };
-    let Err(e) = simulate_sewn(&mesh, &rest, None, &fabric, &sc, &mut |_| {}) else {
+    let Err(e) = simulate_sewn(&mesh, &rest, &[], None, &fabric, &sc, &mut |_| {}) else {
         panic!("a folded triangle was accepted")
     };
     assert!(matches!(e, SimError::FoldedRest { face } if face.idx() == 7), "{e}");
     assert!(e.to_string().contains("face 7"));
+}
+
+/// The assembled system of a sewn mold (pattern triangles, woven fabric, seam bars, liquid)
+/// against finite differences of its energy and gradient; the energy's per-face shares add up
+/// to it.
+#[test]
+fn sewn_system_matches_finite_differences() {
+    use clothcast_sim::constraints::Constraints;
+    use clothcast_sim::element::{Bar, Element};
+    use clothcast_sim::hydrostatic::Hydrostatic;
+    use clothcast_sim::system::{Loads, System};
+    let mesh = shapes::icosphere(1, 0.3);
+    let rest = patterns(&mesh, |c, _| Vec3::new(1.0, 0.3, 0.0) + c);
+    let elements: Vec<Element> = mesh.face_ids().map(|f| Element::from_plane(&rest[f]).unwrap()).collect();
+    let fabric = WovenFabric::stiffening(5.0e4, 2.0e4, 6.0e4, 2.5e4, 1.0e3).unwrap();
+    let loads = Loads {
+        hydrostatic: Some(Hydrostatic { rho_g: 14000.0, up: Vec3::z(), fill_height: 0.05 }),
+        head_pressure: 300.0,
+        self_weight: None,
+    };
+    let mut c = Constraints::free(mesh.n_vertices());
+    c.fix_vertex(VertexId(0));
+    let mut sys = System::with_elements(&mesh, elements, &fabric, loads, &c, vec![], None);
+    // Bars on the first edge of every third face, some stretched, some compressed below.
+    let bars: Vec<[Bar; 3]> = mesh
+        .face_ids()
+        .map(|f| {
+            let mut b = [Bar::default(); 3];
+            if f.idx() % 3 == 0 {
+                let l = (rest[f][1] - rest[f][0]).norm();
+                b[0] = Bar { stiffness: 1500.0, rest: l * (0.97 + 0.01 * (f.idx() % 7) as f64), compression: 0.01 };
+            }
+            b
+        })
+        .collect();
+    sys.set_bars(bars);
+    let x: Vec<Vec3> =
+        mesh.positions().iter().map(|p| Vec3::new(p.x * 1.1, p.y * 0.95 + 0.02 * p.z, p.z * 1.05)).collect();
+    let ev = sys.evaluate(&x, 0.8, true);
+    let mut shares = Vec::new();
+    let total = sys.energy_faces(&x, 0.8, Some(&mut shares));
+    assert!((total - ev.energy).abs() < 1e-9 * ev.energy_magnitude, "{total} vs {}", ev.energy);
+    let h = ev.hessian.clone().unwrap();
+    let n = sys.n_dofs();
+    let eps = 1e-6;
+    let mut xp = vec![Vec3::zeros(); x.len()];
+    for i in (0..n).step_by(5) {
+        let mut d = vec![0.0; n];
+        d[i] = 1.0;
+        sys.apply_step(&x, &d, eps, &mut xp);
+        let ep = sys.evaluate(&xp, 0.8, false);
+        sys.apply_step(&x, &d, -eps, &mut xp);
+        let em = sys.evaluate(&xp, 0.8, false);
+        let fd = (ep.energy - em.energy) / (2.0 * eps);
+        assert!(
+            (fd - ev.gradient[i]).abs() < 1e-5 * (1.0 + ev.gradient[i].abs()),
+            "grad {i}: {fd} vs {}",
+            ev.gradient[i]
+        );
+        let mut col = vec![0.0; n];
+        sys.pattern().mul_vec(&h, &d, &mut col);
+        for j in 0..n {
+            let fdh = (ep.gradient[j] - em.gradient[j]) / (2.0 * eps);
+            assert!((fdh - col[j]).abs() < 1e-4 * (1.0 + col[j].abs()), "hess ({j},{i}): {fdh} vs {}", col[j]);
+        }
+    }
 }

@@ -49,6 +49,8 @@ pub struct FabricSummary {
     pub shear_modulus: f64,
     /// A yarn's stiffness in compression over its tensile stiffness.
     pub compression_ratio: f64,
+    /// Axial stiffness of every seam (N); 0: seams no stiffer than the fabric.
+    pub seam_stiffness: f64,
 }
 
 /// The `validation` section of `summary.json`.
@@ -265,8 +267,22 @@ pub fn run(
             (0..3).map(|k| (sim.positions[t[k]] - input.mesh.position(t[k])) * hit.weights[k]).sum::<Vec3>() + p
         })
         .collect();
+    // The seams: every edge of every seam chain, with the seam allowances' stiffness.
+    let seam_stiffness = cfg
+        .validation
+        .seam_stiffness
+        .unwrap_or_else(|| 2.0 * cfg.pattern.seam_allowance_mm / 1000.0 * (fabric.warp * fabric.weft).sqrt());
+    let mut seams = Vec::new();
+    for chain in &seg.seams {
+        for w in chain.vertices.windows(2) {
+            let h = seg.mesh.outgoing(w[0]).find(|&h| seg.mesh.head(h) == w[1]).ok_or_else(|| {
+                Failure::Internal(anyhow!("seam vertices {} and {} share no edge", w[0].idx(), w[1].idx()))
+            })?;
+            seams.push((seg.mesh.edge(h), seam_stiffness));
+        }
+    }
     let stage = progress.stage("checking: the sewn mold, filled");
-    let result = simulate_sewn(&seg.mesh, &rest, Some(start), &fabric, &sc, &mut |it| {
+    let result = simulate_sewn(&seg.mesh, &rest, &seams, Some(start), &fabric, &sc, &mut |it| {
         stage.set_message(format!("checking: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
     })
     .map_err(|e| Failure::Internal(anyhow!("the check of the sewn mold: {e}")))?;
@@ -318,6 +334,7 @@ pub fn run(
             weft_stiffness_stretched: fabric.weft_stretched,
             shear_modulus: fabric.shear,
             compression_ratio: fabric.compression,
+            seam_stiffness,
         },
         faces: seg.mesh.n_faces(),
         vertices: seg.mesh.n_vertices(),
