@@ -779,6 +779,14 @@ impl Config {
         positive("validation", "shear_ratio", v.shear_ratio)?;
         if let Some(k) = v.fabric_scale {
             positive("validation", "fabric_scale", k)?;
+            if v.fabric.is_none() {
+                return Err(err(
+                    "validation",
+                    "fabric_scale",
+                    k.to_string(),
+                    "scales a measured fabric: set fabric too",
+                ));
+            }
         }
         if let Some(k) = v.seam_stiffness {
             non_negative("validation", "seam_stiffness", k)?;

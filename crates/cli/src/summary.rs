@@ -66,7 +66,7 @@ pub struct Summary {
     pub patterns: Option<crate::stages::patterns::PatternsSummary>,
     /// The check: the mold sewn from the patterns, filled.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub validation: Option<crate::stages::validation::ValidationSummary>,
+    pub validation: Option<crate::stages::validation::ValidationOutcome>,
     /// Total wall-clock seconds.
     pub seconds_total: f64,
 }

@@ -204,8 +204,8 @@ impl Bar {
     }
 }
 
-/// The bars of a face (by edge: corner k to k + 1), added to its element's energy, gradient
-/// and Hessian; `None` where the face has none.
+/// The bars of a face (by edge: corner k to k + 1; a bar of zero stiffness is none), added to
+/// its element's energy, gradient and Hessian.
 #[inline]
 pub fn add_bars(bars: &[Bar; 3], p: &[Vec3; 3], project: bool, e: &mut f64, g: &mut Vec9, h: &mut Mat9) {
     for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {

@@ -222,7 +222,8 @@ impl Material for WrinklingStVenantKirchhoff {
 /// where a yarn's stress is WOR11's `σ = k(E) E`, its energy `Φ(E) = ∫₀^E k(e) e de`, and its
 /// stiffness `k` rises linearly in the stretch `s = √(1 + 2E)` from its small-strain value at
 /// s = 1 to its stretched value at s ≥ 7/6 (WOR11's strain coordinate `t = clamp(6(s − 1), 0,
-/// 1)` between its rest row and its row along that yarn). `k_warp`, `k_weft` are the tensile
+/// 1)` between its rest row and its row along that yarn; read by the yarn's own stretch, where
+/// ARCSim reads the whole table by the largest principal stretch and its direction). `k_warp`, `k_weft` are the tensile
 /// stiffnesses (N/m) of a 1 m strip along each yarn and `G` the in-plane shear modulus
 /// (WOR11's k0, k2 and k3/4). A yarn in compression buckles out of the weave and keeps only a
 /// small fraction `c` of its small-strain stiffness (as the tension-field model lets an
@@ -236,7 +237,9 @@ impl Material for WrinklingStVenantKirchhoff {
 /// a diagonal PSD tangent (a softening yarn's tangent is floored at zero).
 ///
 /// The material frame of a face is its rest element's: [`crate::element::Element::from_plane`]
-/// on the pattern piece, whose +u is the warp.
+/// on the pattern piece, whose +u is the warp. (With the target's own triangles as rest shapes,
+/// as [`crate::scenario::simulate`] has them, the warp would run along each triangle's first
+/// edge: the fabric only means something on pattern triangles.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WovenFabric {
     /// Small-strain tensile stiffness along the warp (N/m).
@@ -304,15 +307,13 @@ impl WovenFabric {
             return (0.5 * k0 * e * e, k0 * e, k0);
         }
         let e1 = 0.5 * (STRETCHED_AT * STRETCHED_AT - 1.0);
-        // ∫₀^E e √(1 + 2e) de = (s − 1)² (3s³ + 6s² + 4s + 2) / 30, s = √(1 + 2E), written
-        // without cancellation (s − 1 = 2E / (s + 1)).
-        let integral = |e: f64| {
-            let s = (1.0 + 2.0 * e).sqrt();
-            let sm1 = 2.0 * e / (s + 1.0);
-            sm1 * sm1 * (((3.0 * s + 6.0) * s + 4.0) * s + 2.0) / 30.0
+        // k(e) = k0 + 6d (s − 1) up to e1, so Φ(E) = ½ k0 E² + 6d ∫₀^E (s − 1) e de, and with
+        // t = s − 1 (e = t(2 + t)/2, de = (1 + t) dt) the integral is T³ (1/3 + 3T/8 + T²/10):
+        // no cancellation (T = 2E / (S + 1)).
+        let phi = |e: f64| {
+            let t = 2.0 * e / ((1.0 + 2.0 * e).sqrt() + 1.0);
+            0.5 * k0 * e * e + 6.0 * d * t * t * t * (1.0 / 3.0 + t * (3.0 / 8.0 + t / 10.0))
         };
-        // k(e) = k0 + 6d (s − 1) = (k0 − 6d) + 6d s up to e1.
-        let phi = |e: f64| 0.5 * (k0 - 6.0 * d) * e * e + 6.0 * d * integral(e);
         if e >= e1 {
             return (phi(e1) + 0.5 * k1 * (e * e - e1 * e1), k1 * e, k1);
         }

@@ -604,7 +604,8 @@ impl<'a> System<'a> {
 
     /// The part of Π that depends on vertex `v` (its faces, its weight, its contacts) with `v`
     /// at `y` and every other vertex at `x`; with `derivatives`, also its gradient and its
-    /// Hessian block with respect to `y` (elastic part projected as in [`System::evaluate`]).
+    /// Hessian block with respect to `y` (the geometric terms of the elements and seam bars
+    /// always projected to their positive parts: a relaxation needs a PSD block).
     /// The energy is the same to the bit either way (each face's share by
     /// [`System::face_energy`]'s formula), so one call with derivatives gives a relaxation
     /// both its step and the energy its trial points are compared with.
@@ -716,8 +717,9 @@ impl<'a> System<'a> {
         alpha
     }
 
-    /// Energy, gradient, external force and (optionally) the Hessian with its elastic part
-    /// projected to PSD (see [`crate::element`]).
+    /// Energy, gradient, external force and (optionally) the Hessian, its elastic part's
+    /// geometric term projected to PSD where the material asks for it
+    /// ([`Material::project_geometric`]; see [`crate::element`]), seam bars included.
     pub fn evaluate(&mut self, x: &[Vec3], s: f64, hessian: bool) -> Evaluation {
         let mesh = self.mesh;
         let material = self.material;

@@ -7,6 +7,7 @@ use crate::failure::{Blame, Failure};
 use crate::input;
 use crate::progress::Progress;
 use crate::stages;
+use crate::stages::validation::ValidationOutcome;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
 use clothcast_layout::{Segmentation, SplitHint, patch_extent};
@@ -265,11 +266,22 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // Stage 6: the check, the mold sewn from the patterns.
     let validation = match (segmentation.as_ref(), patterns.as_ref()) {
         (Some(seg), Some(p)) if until >= Until::All && cfg.validation.enabled => {
-            let v = stages::validation::run(&cfg, &input, &sim, seg, p, progress)?;
-            stages::validation::write_outputs(&args.out, &input, seg, &v)?;
-            written.push("cast.ply");
-            stages.validation = Some(StageTime { seconds: v.summary.seconds });
-            Some(v.summary)
+            let t = Instant::now();
+            match stages::validation::run(&cfg, &input, &sim, seg, p, progress) {
+                Ok(v) => {
+                    stages::validation::write_outputs(&args.out, &input, seg, &v)?;
+                    written.push("cast.ply");
+                    stages.validation = Some(StageTime { seconds: v.summary.seconds });
+                    Some(ValidationOutcome::Done(Box::new(v.summary)))
+                }
+                // The patterns stand: the check's failure is reported, not the run's.
+                Err(Failure::Input(e) | Failure::Internal(e)) => {
+                    tracing::warn!("the check (the sewn mold, filled) could not be made: {e:#}; the patterns stand");
+                    stages.validation = Some(StageTime { seconds: t.elapsed().as_secs_f64() });
+                    Some(ValidationOutcome::Failed { error: format!("{e:#}") })
+                }
+                Err(e) => return Err(e),
+            }
         }
         _ => None,
     };

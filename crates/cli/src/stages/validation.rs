@@ -64,6 +64,8 @@ pub struct ValidationSummary {
     pub residual_rel: f64,
     /// The fabric.
     pub fabric: FabricSummary,
+    /// Pattern triangles folded over on their pieces, sewn mirrored.
+    pub folded_triangles: usize,
     /// Faces and vertices of the sewn mold (the segmented target).
     pub faces: usize,
     /// Vertices.
@@ -77,7 +79,8 @@ pub struct ValidationSummary {
     /// The mean signed distance (m), outward positive: how much the cast bulges on average.
     pub deviation_signed_mean_m: f64,
     /// The same mean for stage 1's mold (each target triangle its own panel, the isotropic
-    /// model): what the infill's stretch alone gives, for comparison.
+    /// model), measured at the same points (its equilibrium carried onto the segmented mesh):
+    /// what the infill's stretch alone gives, for comparison.
     pub design_deviation_mean_m: f64,
     /// Largest distance of stage 1's mold from the target (m).
     pub design_deviation_max_m: f64,
@@ -100,13 +103,27 @@ pub struct ValidationSummary {
     pub seconds: f64,
 }
 
+/// The `validation` section of `summary.json`: the check's figures, or why it could not be
+/// made (the run still succeeds: its patterns are written).
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum ValidationOutcome {
+    /// The check ran (converged or not: see `converged`).
+    Done(Box<ValidationSummary>),
+    /// It failed before an equilibrium could be sought.
+    Failed {
+        /// What went wrong.
+        error: String,
+    },
+}
+
 /// What the stage produces.
 pub struct ValidationResult {
     /// The cast (the sewn mold's equilibrium), on the segmented mesh.
     pub positions: VertexData<Vec3>,
     /// Per vertex: signed distance from the target (m, outward positive).
     pub deviation: Vec<f64>,
-    /// Per face: shear (degrees), warp and weft stretch.
+    /// Per face: the weave's shear (degrees).
     pub shear_deg: Vec<f64>,
     /// Per face: stretch along the warp.
     pub warp_stretch: Vec<f64>,
@@ -171,8 +188,11 @@ pub fn fabric(cfg: &Config) -> Result<(WovenFabric, String), Failure> {
 }
 
 /// Each segmented face's triangle on its pattern piece as the piece lies on the roll (metres,
-/// corners in the face's vertex order).
-fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<FaceData<[Vector2; 3]>, Failure> {
+/// corners in the face's vertex order), and how many were folded over on their piece (a
+/// flipped triangle the flattening could not undo, warned about there): those are mirrored
+/// across the warp (v → −v), which keeps their metric, C = FᵀF, and their yarn directions.
+fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<(FaceData<[Vector2; 3]>, usize), Failure> {
+    let mut folded = 0;
     let mut rest: FaceData<Option<[Vector2; 3]>> = FaceData::from_vec(vec![None; seg.mesh.n_faces()]);
     for fp in &p.flat.patches {
         let piece = p
@@ -192,6 +212,13 @@ fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<FaceData<
                 let q = piece.to_roll([fp.uv[*c].x * 1000.0, fp.uv[*c].y * 1000.0]);
                 tri[k] = Vector2::new(q[0] / 1000.0, q[1] / 1000.0);
             }
+            let (a, b) = (tri[1] - tri[0], tri[2] - tri[0]);
+            if a.x * b.y - a.y * b.x < 0.0 {
+                folded += 1;
+                for q in &mut tri {
+                    q.y = -q.y;
+                }
+            }
             rest[sf] = Some(tri);
         }
     }
@@ -199,19 +226,24 @@ fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<FaceData<
     if let Some(f) = missing {
         return Err(Failure::Internal(anyhow!("segmented face {f} lies on no pattern piece")));
     }
-    Ok(rest.map(|t| t.expect("checked")))
+    Ok((rest.map(|t| t.expect("checked")), folded))
 }
 
-/// Signed distances of `points` from the surface of `target` (outward positive).
-fn distances(target: &Mesh, cp: &ClosestPoint<'_>, points: &[Vec3]) -> Vec<f64> {
-    let normals = target.face_normals();
+/// Signed distances of `points` from the surface of `target` (outward positive: the side of
+/// the vertex normals interpolated at the closest point, which, unlike the closest face's
+/// normal, is right where that point lies on an edge or a vertex).
+fn distances(target: &Mesh, cp: &ClosestPoint<'_>, normals: &VertexData<Vec3>, points: &[Vec3]) -> Vec<f64> {
     points
         .iter()
         .map(|p| {
             let hit = cp.query(p);
-            let t = target.face_positions(hit.face);
-            let on = t[0] * hit.weights[0] + t[1] * hit.weights[1] + t[2] * hit.weights[2];
-            if (p - on).dot(&normals[hit.face]) < 0.0 { -hit.distance } else { hit.distance }
+            let vs = target.face_vertices(hit.face);
+            let (mut on, mut n) = (Vec3::zeros(), Vec3::zeros());
+            for k in 0..3 {
+                on += target.position(vs[k]) * hit.weights[k];
+                n += normals[vs[k]] * hit.weights[k];
+            }
+            if (p - on).dot(&n) < 0.0 { -hit.distance } else { hit.distance }
         })
         .collect()
 }
@@ -244,19 +276,40 @@ pub fn run(
             if weft > warp { "minor" } else { "major" },
         );
     }
-    let rest = pattern_triangles(seg, patterns)?;
+    let (rest, folded) = pattern_triangles(seg, patterns)?;
+    if folded > 0 {
+        tracing::warn!(
+            "{folded} pattern triangles are folded over on their pieces (flattening.flipped_triangles): the check \
+             sews them mirrored"
+        );
+    }
+    let cp = ClosestPoint::new(&input.mesh);
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     if cfg.suspension.mode == SuspensionMode::Vertices {
-        // The clamped target vertices, on the segmented mesh (every target vertex is one of its).
+        // The clamped target vertices, on the segmented mesh (every target vertex is one of
+        // its), and the vertices the segmentation inserted on an edge between two of them (a
+        // seam ending on a clamped rim).
         let Suspension::Vertices(held) = &sc.suspension else { unreachable!("mode vertices") };
         let held: std::collections::HashSet<VertexId> = held.iter().copied().collect();
-        sc.suspension = Suspension::Vertices(
-            seg.mesh.vertices().filter(|&v| seg.vertex_input[v].is_some_and(|t| held.contains(&t))).collect(),
-        );
+        let holds = |v: VertexId| match seg.vertex_input[v] {
+            Some(t) => held.contains(&t),
+            None => {
+                let hit = cp.query(&seg.mesh.position(v));
+                let on: Vec<VertexId> = input
+                    .mesh
+                    .face_vertices(hit.face)
+                    .into_iter()
+                    .zip(hit.weights)
+                    .filter(|&(_, w)| w > 1e-9)
+                    .map(|(t, _)| t)
+                    .collect();
+                on.len() <= 2 && on.iter().all(|t| held.contains(t))
+            }
+        };
+        sc.suspension = Suspension::Vertices(seg.mesh.vertices().filter(|&v| holds(v)).collect());
     }
     // Started from stage 1's equilibrium, carried to the segmented mesh (its vertices lie on
     // the target: each takes the displacement of its point there).
-    let cp = ClosestPoint::new(&input.mesh);
     let start: Vec<Vec3> = seg
         .mesh
         .positions()
@@ -281,11 +334,18 @@ pub fn run(
             seams.push((seg.mesh.edge(h), seam_stiffness));
         }
     }
+    // Stage 1's mold measured like the cast: at the segmented mesh's vertices.
+    let normals = input.mesh.vertex_normals();
+    let design = distances(&input.mesh, &cp, &normals, &start);
     let stage = progress.stage("checking: the sewn mold, filled");
     let result = simulate_sewn(&seg.mesh, &rest, &seams, Some(start), &fabric, &sc, &mut |it| {
         stage.set_message(format!("checking: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
     })
-    .map_err(|e| Failure::Internal(anyhow!("the check of the sewn mold: {e}")))?;
+    .map_err(|e| {
+        let input_error = e.is_input_error();
+        let e = anyhow!("{e} (vertices and faces numbered as in segmentation.ply)");
+        if input_error { Failure::Input(e) } else { Failure::Internal(e) }
+    })?;
     drop(stage);
     let s = &result.stats;
     if !s.converged {
@@ -298,8 +358,7 @@ pub fn run(
     }
 
     // Deviation from the target, of the cast and of stage 1's mold.
-    let deviation = distances(&input.mesh, &cp, result.positions.as_slice());
-    let design = distances(&input.mesh, &cp, sim.positions.as_slice());
+    let deviation = distances(&input.mesh, &cp, &normals, result.positions.as_slice());
     let n = deviation.len().max(1) as f64;
     let mean_abs = |d: &[f64]| d.iter().map(|x| x.abs()).sum::<f64>() / d.len().max(1) as f64;
     let max_abs = |d: &[f64]| d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -336,6 +395,7 @@ pub fn run(
             compression_ratio: fabric.compression,
             seam_stiffness,
         },
+        folded_triangles: folded,
         faces: seg.mesh.n_faces(),
         vertices: seg.mesh.n_vertices(),
         deviation_mean_m: mean_abs(&deviation),
