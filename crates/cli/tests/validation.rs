@@ -158,6 +158,7 @@ fn measured_fabrics_by_name_or_file() {
         ("fabric = \"bad.json\"\n", "not a WOR11 fabric file"),
         ("fabric = \"short.json\"\n", "6 rows of 4"),
         ("fabric = \"11oz-black-denim\"\nfabric_scale = 0.0\n", "validation.fabric_scale"),
+        ("fabric_scale = 2.0\n", "set fabric too"),
     ] {
         // Refused before any work: nothing written.
         let bad = tmpdir("validation-bad-fabric");
