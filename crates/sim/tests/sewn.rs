@@ -188,3 +188,44 @@ fn sewn_system_matches_finite_differences() {
         }
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+    /// For any fabric (stiffening or softening yarns) and any strain away from the kinks (a yarn
+    /// at zero strain, or at the stretch 7/6 where its stiffness stops rising): the stress is
+    /// the energy's gradient, the tangent the stress's, the tangent is PSD, and the energy is
+    /// never negative.
+    #[test]
+    fn woven_fabric_stress_and_tangent_are_the_energy_derivatives(
+        warp in 1.0e2f64..1.0e5,
+        weft in 1.0e2f64..1.0e5,
+        rise in 0.5f64..2.0,
+        shear in 1.0f64..1.0e4,
+        e0 in -0.2f64..0.5,
+        e1 in -0.2f64..0.5,
+        g in -0.5f64..0.5,
+    ) {
+        use clothcast_sim::Material;
+        let kink = 0.5 * ((7.0f64 / 6.0).powi(2) - 1.0);
+        proptest::prop_assume!(e0.abs() > 1e-4 && e1.abs() > 1e-4 && (e0 - kink).abs() > 1e-4 && (e1 - kink).abs() > 1e-4);
+        let m = WovenFabric::stiffening(warp, weft, warp * rise, weft * rise, shear).unwrap();
+        let f = clothcast_mesh::FaceId::new(0);
+        let e = nalgebra::Vector3::new(e0, e1, g);
+        let r = m.response(f, &e);
+        proptest::prop_assert!(r.energy >= 0.0);
+        proptest::prop_assert!(r.tangent.symmetric_eigenvalues().min() >= 0.0);
+        let h = 1e-7;
+        for j in 0..3 {
+            let (mut ep, mut em) = (e, e);
+            ep[j] += h;
+            em[j] -= h;
+            let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
+            proptest::prop_assert!((ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()), "dW/dE{}: {} vs {}", j, ds, r.stress[j]);
+            // A softening yarn's tangent is floored at zero: compare where it is not.
+            if r.tangent[(j, j)] > 0.0 {
+                let dc = (m.response(f, &ep).stress[j] - m.response(f, &em).stress[j]) / (2.0 * h);
+                proptest::prop_assert!((dc - r.tangent[(j, j)]).abs() < 1e-4 * (1.0 + dc.abs()), "C{}{}: {} vs {}", j, j, dc, r.tangent[(j, j)]);
+            }
+        }
+    }
+}
