@@ -151,9 +151,12 @@ fn check_run(out: &Path) -> Value {
             "shear_over_5deg_share",
             "warp_stretch_max",
             "weft_stretch_max",
+            "strain_direction_change_median_deg",
             "seconds",
         ],
     );
+    let turn = v["strain_direction_change_median_deg"].as_f64().unwrap();
+    assert!((0.0..=90.0).contains(&turn), "{v}");
     assert_eq!(v["converged"], true, "{v}");
     assert_eq!(v["faces"], s["segmentation"]["faces"]);
     let (dev, design) = (v["deviation_mean_m"].as_f64().unwrap(), v["design_deviation_mean_m"].as_f64().unwrap());

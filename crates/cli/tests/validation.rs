@@ -61,7 +61,7 @@ fn a_softer_fabric_deviates_further() {
         let (nv, nf, props) = ply_header(&out.join("cast.ply"));
         assert_eq!(nv as u64, v["vertices"].as_u64().unwrap());
         assert_eq!(nf as u64, v["faces"].as_u64().unwrap());
-        for p in ["deviation", "patch", "shear_deg", "warp_stretch", "weft_stretch"] {
+        for p in ["deviation", "patch", "shear_deg", "warp_stretch", "weft_stretch", "direction_change_deg"] {
             assert!(props.iter().any(|q| q == p), "cast.ply lacks {p}: {props:?}");
         }
     }

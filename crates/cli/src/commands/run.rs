@@ -264,10 +264,10 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     let pattern_files: Vec<String> = patterns.as_ref().map(|p| p.summary.files.clone()).unwrap_or_default();
 
     // Stage 6: the check, the mold sewn from the patterns.
-    let validation = match (segmentation.as_ref(), patterns.as_ref()) {
-        (Some(seg), Some(p)) if until >= Until::All && cfg.validation.enabled => {
+    let validation = match (field.as_ref(), segmentation.as_ref(), patterns.as_ref()) {
+        (Some(f), Some(seg), Some(p)) if until >= Until::All && cfg.validation.enabled => {
             let t = Instant::now();
-            match stages::validation::run(&cfg, &input, &sim, seg, p, progress) {
+            match stages::validation::run(&cfg, &input, &sim, f, seg, p, progress) {
                 Ok(v) => {
                     stages::validation::write_outputs(&args.out, &input, seg, &v)?;
                     written.push("cast.ply");

@@ -11,6 +11,7 @@ use crate::input::Input;
 use crate::progress::Progress;
 use crate::stages::patterns::PatternsResult;
 use anyhow::{Context, anyhow};
+use clothcast_field::FieldResult;
 use clothcast_flatten::WarpAlong;
 use clothcast_layout::Segmentation;
 use clothcast_mesh::Vec2 as Vector2;
@@ -93,6 +94,14 @@ pub struct ValidationSummary {
     pub shear_max_deg: f64,
     /// Share of the fabric's area sheared by more than 5°.
     pub shear_over_5deg_share: f64,
+    /// Median over the faces of the angle between the cast's largest principal stretch and
+    /// stage 1's (the isotropic simulation's, which the field and the seams follow), in
+    /// degrees: the paper's Table 2 measure of how far the woven fabric moves the strain
+    /// directions.
+    pub strain_direction_change_median_deg: f64,
+    /// The same median over the faces stage 1 found anisotropic (whose directions the field
+    /// keeps), or null when there are none.
+    pub strain_direction_change_anisotropic_median_deg: Option<f64>,
     /// Largest stretch along the warp (1: unstretched).
     pub warp_stretch_max: f64,
     /// Largest stretch along the weft.
@@ -129,6 +138,9 @@ pub struct ValidationResult {
     pub warp_stretch: Vec<f64>,
     /// Per face: stretch along the weft.
     pub weft_stretch: Vec<f64>,
+    /// Per face: the angle between the cast's and stage 1's largest principal stretch
+    /// (degrees).
+    pub direction_change_deg: Vec<f64>,
     /// Summary section.
     pub summary: ValidationSummary,
 }
@@ -253,6 +265,7 @@ pub fn run(
     cfg: &Config,
     input: &Input,
     sim: &SimResult,
+    field: &FieldResult,
     seg: &Segmentation,
     patterns: &PatternsResult,
     progress: &Progress,
@@ -365,6 +378,7 @@ pub fn run(
 
     // The weave: per face, the warp and weft directions carried by the deformation.
     let (mut shear_deg, mut warp_stretch, mut weft_stretch) = (Vec::new(), Vec::new(), Vec::new());
+    let mut turn = Vec::with_capacity(seg.mesh.n_faces());
     let (mut area, mut shear_area, mut visible) = (0.0, 0.0, 0.0);
     for f in seg.mesh.face_ids() {
         let e = Element::from_plane(&rest[f]).expect("checked by the solve");
@@ -379,7 +393,26 @@ pub fn run(
         shear_deg.push(g);
         warp_stretch.push(lu);
         weft_stretch.push(lv);
+        // The cast's largest principal stretch, in the pattern's frame, carried onto the
+        // target (the map from the face's pattern triangle to its place on the target), against
+        // stage 1's on the target face the segmented face lies in: an angle between lines.
+        let c = k.strain;
+        let theta = 0.5 * (2.0 * c[2]).atan2(2.0 * (c[0] - c[1]));
+        let u = Vector2::new(theta.cos(), theta.sin());
+        let (tri, uv) = (seg.mesh.face_positions(f), &rest[f]);
+        let (a, b) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let det = a.x * b.y - a.y * b.x;
+        // Pattern coordinates of u in the triangle's edge basis, then the same edges in 3D.
+        let (s1, s2) = ((u.x * b.y - u.y * b.x) / det, (a.x * u.y - a.y * u.x) / det);
+        let cast = ((tri[1] - tri[0]) * s1 + (tri[2] - tri[0]) * s2).normalize();
+        let parent = seg.face_parent[f];
+        let iso = input.mesh.face_frame(parent).direction(field.raw.angle[parent]);
+        turn.push((cast.dot(&iso).abs().min(1.0).acos().to_degrees(), field.anisotropic[parent]));
     }
+    let median = |mut v: Vec<f64>| -> Option<f64> {
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| v[v.len() / 2])
+    };
     let diagonal = input.mesh.bbox().diagonal();
     let summary = ValidationSummary {
         converged: s.converged,
@@ -408,6 +441,8 @@ pub fn run(
         shear_mean_deg: shear_area / area,
         shear_max_deg: shear_deg.iter().copied().fold(0.0, f64::max),
         shear_over_5deg_share: visible / area,
+        strain_direction_change_median_deg: median(turn.iter().map(|t| t.0).collect()).unwrap_or(0.0),
+        strain_direction_change_anisotropic_median_deg: median(turn.iter().filter(|t| t.1).map(|t| t.0).collect()),
         warp_stretch_max: warp_stretch.iter().copied().fold(0.0, f64::max),
         weft_stretch_max: weft_stretch.iter().copied().fold(0.0, f64::max),
         solver: s.solver.clone(),
@@ -439,7 +474,16 @@ pub fn run(
         100.0 * summary.shear_over_5deg_share,
         summary.seconds
     ));
-    Ok(ValidationResult { positions: result.positions, deviation, shear_deg, warp_stretch, weft_stretch, summary })
+    let direction_change_deg = turn.iter().map(|t| t.0).collect();
+    Ok(ValidationResult {
+        positions: result.positions,
+        deviation,
+        shear_deg,
+        warp_stretch,
+        weft_stretch,
+        direction_change_deg,
+        summary,
+    })
 }
 
 /// Write `cast.ply`: the cast on the segmented mesh (input units), per vertex the signed
@@ -454,6 +498,7 @@ pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation, r: &Validati
         Attribute::f64("shear_deg", r.shear_deg.clone()),
         Attribute::f64("warp_stretch", r.warp_stretch.clone()),
         Attribute::f64("weft_stretch", r.weft_stretch.clone()),
+        Attribute::f64("direction_change_deg", r.direction_change_deg.clone()),
     ];
     let comment = format!(
         "clothcast cast: the mold sewn from the patterns, filled (stage 6)\ncoordinates in input units ({} m per \
