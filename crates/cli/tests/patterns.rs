@@ -155,6 +155,7 @@ fn check_run(out: &Path) -> Value {
             "seconds",
         ],
     );
+    // An angle between lines; a NaN (a degenerate direction) would fail here.
     let turn = v["strain_direction_change_median_deg"].as_f64().unwrap();
     assert!((0.0..=90.0).contains(&turn), "{v}");
     assert_eq!(v["converged"], true, "{v}");

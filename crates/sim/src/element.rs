@@ -184,32 +184,67 @@ impl Bar {
     /// geometric term's strain is taken at its positive part (a PSD block).
     #[inline]
     pub fn evaluate(&self, d: &Vec3, project: bool) -> (f64, Vec3, Matrix3<f64>) {
-        let l2 = self.rest * self.rest;
-        let eps = 0.5 * (d.norm_squared() - l2) / l2;
-        let k = if eps > 0.0 { self.stiffness } else { self.compression * self.stiffness };
+        let (eps, k) = self.strain(d);
         let energy = 0.5 * k * self.rest * eps * eps;
         let g = d * (k * eps / self.rest);
         let geo = if project { eps.max(0.0) } else { eps };
-        let h = (d * d.transpose() / l2 + Matrix3::identity() * geo) * (k / self.rest);
+        let h = (d * d.transpose() / (self.rest * self.rest) + Matrix3::identity() * geo) * (k / self.rest);
         (energy, g, h)
     }
 
     /// Energy alone.
     #[inline]
     pub fn energy(&self, d: &Vec3) -> f64 {
+        let (eps, k) = self.strain(d);
+        0.5 * k * self.rest * eps * eps
+    }
+
+    /// The Green strain at edge vector `d`, and the stiffness there (tension or compression).
+    #[inline]
+    fn strain(&self, d: &Vec3) -> (f64, f64) {
         let l2 = self.rest * self.rest;
         let eps = 0.5 * (d.norm_squared() - l2) / l2;
-        let k = if eps > 0.0 { self.stiffness } else { self.compression * self.stiffness };
-        0.5 * k * self.rest * eps * eps
+        (eps, if eps > 0.0 { self.stiffness } else { self.compression * self.stiffness })
     }
 }
 
-/// The bars of a face (by edge: corner k to k + 1; a bar of zero stiffness is none), added to
-/// its element's energy, gradient and Hessian.
+/// The bars of a face that exist, each with its near and far corner (edge k: corner k to
+/// k + 1; a bar of zero stiffness is none).
+#[inline]
+fn face_bars(bars: &[Bar; 3]) -> impl Iterator<Item = (usize, usize, &Bar)> {
+    bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0).map(|(k, b)| (k, (k + 1) % 3, b))
+}
+
+/// `e` plus the energy of a face's bars at corners `p`, added bar by bar (as [`add_bars`]
+/// adds them: the same sum to the bit).
+#[inline]
+pub fn add_bars_energy(bars: &[Bar; 3], p: &[Vec3; 3], e: f64) -> f64 {
+    face_bars(bars).fold(e, |e, (i, j, b)| e + b.energy(&(p[j] - p[i])))
+}
+
+/// A face's bars added to a vertex's terms: their energy to `e` (added as
+/// [`add_bars_energy`] does), and to `g`, `h` the gradient and (projected) Hessian block of
+/// corner `a` alone: what a vertex-by-vertex relaxation needs ([`Element::corner`]'s
+/// counterpart).
+#[inline]
+pub fn add_bars_corner(bars: &[Bar; 3], p: &[Vec3; 3], a: usize, e: &mut f64, g: &mut Vec3, h: &mut Matrix3<f64>) {
+    for (i, j, b) in face_bars(bars) {
+        let (be, bg, bh) = b.evaluate(&(p[j] - p[i]), true);
+        *e += be;
+        if a == i {
+            *g -= bg;
+            *h += bh;
+        } else if a == j {
+            *g += bg;
+            *h += bh;
+        }
+    }
+}
+
+/// The bars of a face added to its element's energy, gradient and Hessian.
 #[inline]
 pub fn add_bars(bars: &[Bar; 3], p: &[Vec3; 3], project: bool, e: &mut f64, g: &mut Vec9, h: &mut Mat9) {
-    for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
-        let (i, j) = (k, (k + 1) % 3);
+    for (i, j, b) in face_bars(bars) {
         let (be, bg, bh) = b.evaluate(&(p[j] - p[i]), project);
         *e += be;
         let mut gi = g.fixed_rows_mut::<3>(3 * i);
@@ -266,6 +301,9 @@ pub fn positive_part(s: &Matrix2<f64>) -> Matrix2<f64> {
 mod tests {
     use super::*;
 
+    use crate::material::StVenantKirchhoff;
+    use nalgebra::Rotation3;
+
     #[test]
     fn seam_bar_derivatives() {
         let b = Bar { stiffness: 1500.0, rest: 0.02, compression: 0.01 };
@@ -296,8 +334,6 @@ mod tests {
             assert!(g.fixed_rows::<3>(6).norm() == 0.0);
         }
     }
-    use crate::material::StVenantKirchhoff;
-    use nalgebra::Rotation3;
 
     fn tri() -> [Vec3; 3] {
         [Vec3::new(0.1, 0.2, 0.0), Vec3::new(1.3, 0.1, 0.2), Vec3::new(0.4, 0.9, -0.1)]

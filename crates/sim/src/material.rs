@@ -294,6 +294,12 @@ impl WovenFabric {
         Ok(Self { warp, weft, warp_stretched, weft_stretched, shear, compression: Self::COMPRESSION })
     }
 
+    /// The same fabric with every stiffness multiplied by `k`, or a message naming the value
+    /// that is then not a positive finite number.
+    pub fn scaled(&self, k: f64) -> Result<Self, String> {
+        Self::stiffening(self.warp * k, self.weft * k, self.warp_stretched * k, self.weft_stretched * k, self.shear * k)
+    }
+
     /// A yarn's energy density, stress and tangent at its Green strain `e`, for stiffness `k0`
     /// at rest and `k1` from a stretch of 7/6 on.
     #[inline]
@@ -346,6 +352,41 @@ impl Material for WovenFabric {
 mod tests {
     use super::*;
 
+    /// Central differences of `m` at strain `e` with step `h`: the response's energy is
+    /// `energy`'s, the stress is the energy's gradient (to 1e-5 relative), and every column `j`
+    /// of the tangent that `tangent_checked(j)` admits is the stress's derivative (to 1e-4).
+    fn check_derivatives(
+        m: &dyn Material,
+        e: &Vector3<f64>,
+        h: f64,
+        tangent_checked: impl Fn(usize) -> bool,
+    ) -> Result<(), String> {
+        let f = FaceId(0);
+        let r = m.response(f, e);
+        if (r.energy - m.energy(f, e)).abs() >= 1e-14 {
+            return Err(format!("{e:?}: energy {} vs {}", r.energy, m.energy(f, e)));
+        }
+        for j in 0..3 {
+            let (mut ep, mut em) = (*e, *e);
+            ep[j] += h;
+            em[j] -= h;
+            let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
+            if (ds - r.stress[j]).abs() >= 1e-5 * (1.0 + r.stress[j].abs()) {
+                return Err(format!("{e:?} dW/dE{j}: {ds} vs {}", r.stress[j]));
+            }
+            if !tangent_checked(j) {
+                continue;
+            }
+            let dc = (m.response(f, &ep).stress - m.response(f, &em).stress) / (2.0 * h);
+            for i in 0..3 {
+                if (dc[i] - r.tangent[(i, j)]).abs() >= 1e-4 * (1.0 + r.tangent[(i, j)].abs()) {
+                    return Err(format!("{e:?} C{i}{j}: {} vs {}", dc[i], r.tangent[(i, j)]));
+                }
+            }
+        }
+        Ok(())
+    }
+
     #[test]
     fn wrinkling_model_is_c1_with_consistent_derivatives() {
         let m = WrinklingStVenantKirchhoff::from_young_poisson(1000.0, 0.3);
@@ -361,29 +402,7 @@ mod tests {
         for (e, st) in samples.iter().zip(expect) {
             assert_eq!(m.state(e).3, st, "{e:?}");
             let r = m.response(f, e);
-            assert!((r.energy - m.energy(f, e)).abs() < 1e-14);
-            let h = 1e-7;
-            for j in 0..3 {
-                let mut ep = *e;
-                let mut em = *e;
-                ep[j] += h;
-                em[j] -= h;
-                let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
-                assert!(
-                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
-                    "{st:?} dW/dE{j}: {ds} vs {}",
-                    r.stress[j]
-                );
-                let dc = (m.response(f, &ep).stress - m.response(f, &em).stress) / (2.0 * h);
-                for i in 0..3 {
-                    assert!(
-                        (dc[i] - r.tangent[(i, j)]).abs() < 1e-4 * (1.0 + r.tangent[(i, j)].abs()),
-                        "{st:?} C{i}{j}: {} vs {}",
-                        dc[i],
-                        r.tangent[(i, j)]
-                    );
-                }
-            }
+            check_derivatives(&m, e, 1e-7, |_| true).unwrap_or_else(|why| panic!("{st:?} {why}"));
             // Stress and tangent positive semi-definite.
             let s = nalgebra::Matrix2::new(r.stress[0], r.stress[2], r.stress[2], r.stress[1]);
             assert!(s.symmetric_eigenvalues().min() > -1e-9);
@@ -411,24 +430,8 @@ mod tests {
             Vector3::new(-0.03, -0.02, 0.01),
         ];
         for e in &samples {
-            let r = m.response(f, e);
-            let h = 1e-7;
-            for j in 0..3 {
-                let (mut ep, mut em) = (*e, *e);
-                ep[j] += h;
-                em[j] -= h;
-                let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
-                assert!(
-                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
-                    "dW/dE{j}: {ds} vs {}",
-                    r.stress[j]
-                );
-                let dc = (m.response(f, &ep).stress - m.response(f, &em).stress) / (2.0 * h);
-                for i in 0..3 {
-                    assert!((dc[i] - r.tangent[(i, j)]).abs() < 1e-4 * (1.0 + r.tangent[(i, j)].abs()));
-                }
-            }
-            assert!(r.tangent.symmetric_eigenvalues().min() > -1e-9);
+            check_derivatives(&m, e, 1e-7, |_| true).unwrap();
+            assert!(m.response(f, e).tangent.symmetric_eigenvalues().min() > -1e-9);
         }
         // Stiffening yarns (a WOR11 fabric): derivatives in every regime, the stress k(E)·E,
         // the stretched stiffness from a stretch of 7/6 on (E = 0.1806), continuity there.
@@ -440,27 +443,8 @@ mod tests {
             Vector3::new(0.3, -0.05, 0.03),
             Vector3::new(e1 - 1e-9, e1 + 1e-9, -0.2),
         ] {
-            let r = st.response(f, &e);
             let h = 1e-7 * (1.0 + e[0].abs().max(e[1].abs()));
-            for j in 0..3 {
-                let (mut ep, mut em) = (e, e);
-                ep[j] += h;
-                em[j] -= h;
-                let ds = (st.energy(f, &ep) - st.energy(f, &em)) / (2.0 * h);
-                assert!(
-                    (ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()),
-                    "{e:?} dW/dE{j}: {ds} vs {}",
-                    r.stress[j]
-                );
-                if (e[j] - e1).abs() > 1e-6 {
-                    let dc = (st.response(f, &ep).stress[j] - st.response(f, &em).stress[j]) / (2.0 * h);
-                    assert!(
-                        (dc - r.tangent[(j, j)]).abs() < 1e-4 * (1.0 + dc.abs()),
-                        "{e:?} C{j}{j}: {dc} vs {}",
-                        r.tangent[(j, j)]
-                    );
-                }
-            }
+            check_derivatives(&st, &e, h, |j| (e[j] - e1).abs() > 1e-6).unwrap();
         }
         let r = st.response(f, &Vector3::new(0.3, 0.0, 0.0));
         assert!((r.stress[0] - 460.0 * 0.3).abs() < 1e-9 && r.tangent[(0, 0)] == 460.0);
@@ -500,5 +484,36 @@ mod tests {
         assert!((r.energy - w).abs() < 1e-12);
         // S12 = 2 μ E12.
         assert!((r.stress[2] - 2.0 * m.mu * e12).abs() < 1e-12);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// For any woven fabric (stiffening or softening yarns) and any strain away from the
+        /// kinks (a yarn at zero strain, or at the stretch 7/6 where its stiffness stops
+        /// rising): the stress is the energy's gradient, the tangent the stress's where it is
+        /// not floored at zero (a softening yarn), the tangent is PSD, and the energy is never
+        /// negative.
+        #[test]
+        fn woven_fabric_stress_and_tangent_are_the_energy_derivatives(
+            warp in 1.0e2f64..1.0e5,
+            weft in 1.0e2f64..1.0e5,
+            rise in 0.5f64..2.0,
+            shear in 1.0f64..1.0e4,
+            e0 in -0.2f64..0.5,
+            e1 in -0.2f64..0.5,
+            g in -0.5f64..0.5,
+        ) {
+            let kink = 0.5 * (STRETCHED_AT * STRETCHED_AT - 1.0);
+            proptest::prop_assume!(
+                e0.abs() > 1e-4 && e1.abs() > 1e-4 && (e0 - kink).abs() > 1e-4 && (e1 - kink).abs() > 1e-4
+            );
+            let m = WovenFabric::stiffening(warp, weft, warp * rise, weft * rise, shear).unwrap();
+            let e = Vector3::new(e0, e1, g);
+            let r = m.response(FaceId(0), &e);
+            proptest::prop_assert!(r.energy >= 0.0);
+            proptest::prop_assert!(r.tangent.symmetric_eigenvalues().min() >= 0.0);
+            let checked = check_derivatives(&m, &e, 1e-7, |j| r.tangent[(j, j)] > 0.0);
+            proptest::prop_assert!(checked.is_ok(), "{}", checked.unwrap_err());
+        }
     }
 }

@@ -9,7 +9,7 @@
 //! atomics). Per-face results go to reusable buffers.
 
 use crate::constraints::Constraints;
-use crate::element::{Bar, Element, Mat9, Vec9, add_bars};
+use crate::element::{Bar, Element, Mat9, Vec9, add_bars, add_bars_corner, add_bars_energy};
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane, face_volume};
 use crate::material::Material;
@@ -531,9 +531,7 @@ impl<'a> System<'a> {
     fn face_energy(&self, element: &Element, f: FaceId, p: &[Vec3; 3], s: f64) -> f64 {
         let mut e = element.energy(self.material, f, p);
         if let Some(bars) = self.bars.get(f.idx()) {
-            for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
-                e += b.energy(&(p[(k + 1) % 3] - p[k]));
-            }
+            e = add_bars_energy(bars, p, e);
         }
         if let Some(h) = &self.loads.hydrostatic {
             e -= s * h.work(p);
@@ -633,18 +631,7 @@ impl<'a> System<'a> {
             h += fh;
             // Seam bars: the face's whole share of energy, corner a's derivatives.
             if let Some(bars) = self.bars.get(sf.face.idx()) {
-                for (k, b) in bars.iter().enumerate().filter(|(_, b)| b.stiffness > 0.0) {
-                    let (i, j) = (k, (k + 1) % 3);
-                    let (be, bg, bh) = b.evaluate(&(p[j] - p[i]), true);
-                    fe += be;
-                    if a == i {
-                        g -= bg;
-                        h += bh;
-                    } else if a == j {
-                        g += bg;
-                        h += bh;
-                    }
-                }
+                add_bars_corner(bars, &p, a, &mut fe, &mut g, &mut h);
             }
             if let Some((w, wg, wh)) = self.loads.hydrostatic.as_ref().and_then(|hy| hy.work_corner(&p, a)) {
                 fe -= s * w;

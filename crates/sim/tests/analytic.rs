@@ -258,31 +258,7 @@ fn assembled_gradient_and_hessian_match_finite_differences() {
     // A deformed state (taut and wrinkled elements, faces crossing the level, contact active).
     let x: Vec<Vec3> =
         mesh.positions().iter().map(|p| Vec3::new(p.x * 1.1, p.y * 0.95 + 0.02 * p.z, p.z * 1.05)).collect();
-    let ev = sys.evaluate(&x, 0.8, true);
-    let h = ev.hessian.clone().unwrap();
-    let n = sys.n_dofs();
-    let eps = 1e-6;
-    let mut xp = vec![Vec3::zeros(); x.len()];
-    for i in (0..n).step_by(7) {
-        let mut d = vec![0.0; n];
-        d[i] = 1.0;
-        sys.apply_step(&x, &d, eps, &mut xp);
-        let ep = sys.evaluate(&xp, 0.8, false);
-        sys.apply_step(&x, &d, -eps, &mut xp);
-        let em = sys.evaluate(&xp, 0.8, false);
-        let fd = (ep.energy - em.energy) / (2.0 * eps);
-        assert!(
-            (fd - ev.gradient[i]).abs() < 1e-5 * (1.0 + ev.gradient[i].abs()),
-            "grad {i}: {fd} vs {}",
-            ev.gradient[i]
-        );
-        let mut col = vec![0.0; n];
-        sys.pattern().mul_vec(&h, &d, &mut col);
-        for j in 0..n {
-            let fdh = (ep.gradient[j] - em.gradient[j]) / (2.0 * eps);
-            assert!((fdh - col[j]).abs() < 1e-4 * (1.0 + col[j].abs()), "hess ({j},{i}): {fdh} vs {}", col[j]);
-        }
-    }
+    common::assert_assembled_derivatives(&mut sys, &x, 0.8, 7);
 }
 
 /// Newton never increases the energy (built-in example and a bag on a floor); contact holds;

@@ -1,6 +1,8 @@
 //! A sewn mold: every face's rest shape given as a triangle on a pattern (its +u the warp),
 //! simulated with the woven fabric (`simulate_sewn`, `WovenFabric`).
 
+mod common;
+
 use clothcast_mesh::{FaceData, Mesh, Vec3, VertexId, shapes};
 use clothcast_sim::material::{StVenantKirchhoff, WovenFabric};
 use clothcast_sim::*;
@@ -159,73 +161,9 @@ fn sewn_system_matches_finite_differences() {
     sys.set_bars(bars);
     let x: Vec<Vec3> =
         mesh.positions().iter().map(|p| Vec3::new(p.x * 1.1, p.y * 0.95 + 0.02 * p.z, p.z * 1.05)).collect();
-    let ev = sys.evaluate(&x, 0.8, true);
-    let mut shares = Vec::new();
-    let total = sys.energy_faces(&x, 0.8, Some(&mut shares));
+    // The per-face shares (what the line search sums) add up to the assembled energy.
+    let ev = sys.evaluate(&x, 0.8, false);
+    let total = sys.energy_faces(&x, 0.8, None);
     assert!((total - ev.energy).abs() < 1e-9 * ev.energy_magnitude, "{total} vs {}", ev.energy);
-    let h = ev.hessian.clone().unwrap();
-    let n = sys.n_dofs();
-    let eps = 1e-6;
-    let mut xp = vec![Vec3::zeros(); x.len()];
-    for i in (0..n).step_by(5) {
-        let mut d = vec![0.0; n];
-        d[i] = 1.0;
-        sys.apply_step(&x, &d, eps, &mut xp);
-        let ep = sys.evaluate(&xp, 0.8, false);
-        sys.apply_step(&x, &d, -eps, &mut xp);
-        let em = sys.evaluate(&xp, 0.8, false);
-        let fd = (ep.energy - em.energy) / (2.0 * eps);
-        assert!(
-            (fd - ev.gradient[i]).abs() < 1e-5 * (1.0 + ev.gradient[i].abs()),
-            "grad {i}: {fd} vs {}",
-            ev.gradient[i]
-        );
-        let mut col = vec![0.0; n];
-        sys.pattern().mul_vec(&h, &d, &mut col);
-        for j in 0..n {
-            let fdh = (ep.gradient[j] - em.gradient[j]) / (2.0 * eps);
-            assert!((fdh - col[j]).abs() < 1e-4 * (1.0 + col[j].abs()), "hess ({j},{i}): {fdh} vs {}", col[j]);
-        }
-    }
-}
-
-proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
-    /// For any fabric (stiffening or softening yarns) and any strain away from the kinks (a yarn
-    /// at zero strain, or at the stretch 7/6 where its stiffness stops rising): the stress is
-    /// the energy's gradient, the tangent the stress's, the tangent is PSD, and the energy is
-    /// never negative.
-    #[test]
-    fn woven_fabric_stress_and_tangent_are_the_energy_derivatives(
-        warp in 1.0e2f64..1.0e5,
-        weft in 1.0e2f64..1.0e5,
-        rise in 0.5f64..2.0,
-        shear in 1.0f64..1.0e4,
-        e0 in -0.2f64..0.5,
-        e1 in -0.2f64..0.5,
-        g in -0.5f64..0.5,
-    ) {
-        use clothcast_sim::Material;
-        let kink = 0.5 * ((7.0f64 / 6.0).powi(2) - 1.0);
-        proptest::prop_assume!(e0.abs() > 1e-4 && e1.abs() > 1e-4 && (e0 - kink).abs() > 1e-4 && (e1 - kink).abs() > 1e-4);
-        let m = WovenFabric::stiffening(warp, weft, warp * rise, weft * rise, shear).unwrap();
-        let f = clothcast_mesh::FaceId::new(0);
-        let e = nalgebra::Vector3::new(e0, e1, g);
-        let r = m.response(f, &e);
-        proptest::prop_assert!(r.energy >= 0.0);
-        proptest::prop_assert!(r.tangent.symmetric_eigenvalues().min() >= 0.0);
-        let h = 1e-7;
-        for j in 0..3 {
-            let (mut ep, mut em) = (e, e);
-            ep[j] += h;
-            em[j] -= h;
-            let ds = (m.energy(f, &ep) - m.energy(f, &em)) / (2.0 * h);
-            proptest::prop_assert!((ds - r.stress[j]).abs() < 1e-5 * (1.0 + r.stress[j].abs()), "dW/dE{}: {} vs {}", j, ds, r.stress[j]);
-            // A softening yarn's tangent is floored at zero: compare where it is not.
-            if r.tangent[(j, j)] > 0.0 {
-                let dc = (m.response(f, &ep).stress[j] - m.response(f, &em).stress[j]) / (2.0 * h);
-                proptest::prop_assert!((dc - r.tangent[(j, j)]).abs() < 1e-4 * (1.0 + dc.abs()), "C{}{}: {} vs {}", j, j, dc, r.tangent[(j, j)]);
-            }
-        }
-    }
+    common::assert_assembled_derivatives(&mut sys, &x, 0.8, 5);
 }

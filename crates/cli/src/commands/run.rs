@@ -59,10 +59,9 @@ pub enum Until {
 pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Failure> {
     let t0 = Instant::now();
     let (cfg, repair) = resolve_scenario(args)?;
-    // The check's fabric (a file, perhaps) is input too: refused before any work.
-    if until >= Until::All && cfg.validation.enabled {
-        stages::validation::fabric(&cfg)?;
-    }
+    // The check's fabric (a file, perhaps) is input too: read, or refused, before any work.
+    let fabric =
+        if until >= Until::All && cfg.validation.enabled { Some(stages::validation::fabric(&cfg)?) } else { None };
     let mut stages = Stages::default();
 
     let stage = progress.stage("loading mesh");
@@ -264,10 +263,10 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     let pattern_files: Vec<String> = patterns.as_ref().map(|p| p.summary.files.clone()).unwrap_or_default();
 
     // Stage 6: the check, the mold sewn from the patterns.
-    let validation = match (field.as_ref(), segmentation.as_ref(), patterns.as_ref()) {
-        (Some(f), Some(seg), Some(p)) if until >= Until::All && cfg.validation.enabled => {
+    let validation = match (&fabric, field.as_ref(), segmentation.as_ref(), patterns.as_ref()) {
+        (Some(fabric), Some(f), Some(seg), Some(p)) => {
             let t = Instant::now();
-            match stages::validation::run(&cfg, &input, &sim, f, seg, p, progress) {
+            match stages::validation::run(&cfg, fabric, &input, &sim, f, seg, p, progress) {
                 Ok(v) => {
                     stages::validation::write_outputs(&args.out, &input, seg, &v)?;
                     written.push("cast.ply");

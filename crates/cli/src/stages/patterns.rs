@@ -10,9 +10,9 @@ use clothcast_field::FieldResult;
 use clothcast_flatten::{DistortionLimits, FlatPieces, FlattenOptions, WarpAlong, flatten_segmentation};
 use clothcast_layout::Segmentation;
 use clothcast_mesh::io::{ObjUvs, write_atomic, write_obj};
-use clothcast_mesh::{FaceData, Vec3, VertexData, VertexId};
+use clothcast_mesh::{FaceData, Vec2, Vec3, VertexData, VertexId};
 use clothcast_pattern::{
-    MarkKind, Pattern, PatternOptions, PieceInput, PointMark, SeamSide, all_writers, build_pattern,
+    MarkKind, Pattern, PatternOptions, Piece, PieceInput, PointMark, SeamSide, all_writers, build_pattern,
 };
 use serde::Serialize;
 use std::path::Path;
@@ -54,6 +54,22 @@ pub struct PatternsResult {
     pub pattern: Pattern,
     /// Summary section.
     pub summary: PatternsSummary,
+}
+
+impl PatternsResult {
+    /// The pattern piece of a flattened patch.
+    pub fn piece(&self, patch: u32) -> Result<&Piece, Failure> {
+        self.pattern
+            .pieces
+            .iter()
+            .find(|q| q.id == patch as usize)
+            .ok_or_else(|| Failure::Internal(anyhow::anyhow!("patch {patch} has no pattern piece")))
+    }
+}
+
+/// A point of a flattened piece (metres, piece coordinates) where it lies on the roll (mm).
+pub fn on_roll_mm(piece: &Piece, uv: &Vec2) -> [f64; 2] {
+    piece.to_roll([uv.x * 1000.0, uv.y * 1000.0])
 }
 
 /// Warn about every badly distorted piece of a flattening (`flattening.distorted_pieces`).
@@ -307,15 +323,10 @@ pub fn write_outputs(
     let mut face_uvs: Vec<[u32; 3]> = Vec::new();
     let mut groups: Vec<(String, Vec<u32>)> = Vec::new();
     for p in &r.flat.patches {
-        let piece = r
-            .pattern
-            .pieces
-            .iter()
-            .find(|q| q.id == p.patch as usize)
-            .ok_or_else(|| Failure::Internal(anyhow::anyhow!("patch {} has no pattern piece", p.patch)))?;
+        let piece = r.piece(p.patch)?;
         let base = uvs.len() as u32;
         for v in p.mesh.vertices() {
-            uvs.push(piece.to_roll([p.uv[v].x * 1000.0, p.uv[v].y * 1000.0]));
+            uvs.push(on_roll_mm(piece, &p.uv[v]));
         }
         let mut ids = Vec::with_capacity(p.mesh.n_faces());
         for f in p.mesh.face_ids() {

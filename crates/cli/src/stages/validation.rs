@@ -9,16 +9,16 @@ use crate::config::{Config, SuspensionMode, WOR11_FABRICS};
 use crate::failure::{Blame, Failure};
 use crate::input::Input;
 use crate::progress::Progress;
-use crate::stages::patterns::PatternsResult;
+use crate::stages::patterns::{PatternsResult, on_roll_mm};
 use anyhow::{Context, anyhow};
 use clothcast_field::FieldResult;
 use clothcast_flatten::WarpAlong;
 use clothcast_layout::Segmentation;
 use clothcast_mesh::Vec2 as Vector2;
 use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
-use clothcast_mesh::simplify::ClosestPoint;
+use clothcast_mesh::simplify::{ClosestHit, ClosestPoint};
 use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
-use clothcast_sim::element::Element;
+use clothcast_sim::element::{Element, sym2_angle};
 use clothcast_sim::{SimResult, Suspension, WovenFabric, simulate_sewn};
 use serde::Serialize;
 use std::path::Path;
@@ -152,10 +152,10 @@ struct Wor11 {
 }
 
 /// The woven fabric of a measured WOR11 table, as ARCSim reads it (every stiffness doubled,
-/// negative ones clamped to zero), each scaled by `scale`: the warp's small-strain stiffness
-/// k0 and the weft's k2 from the rest row (0), their stretched ones from the rows along each
-/// yarn (1: 0°, 5: 90°), the shear modulus k3/4 from the rest row. `Err` names what is wrong.
-fn wor11_fabric(text: &str, scale: f64) -> Result<WovenFabric, String> {
+/// negative ones clamped to zero): the warp's small-strain stiffness k0 and the weft's k2 from
+/// the rest row (0), their stretched ones from the rows along each yarn (1: 0°, 5: 90°), the
+/// shear modulus k3/4 from the rest row. `Err` names what is wrong.
+fn wor11_fabric(text: &str) -> Result<WovenFabric, String> {
     let t: Wor11 = serde_json::from_str(text).map_err(|e| format!("not a WOR11 fabric file: {e}"))?;
     if t.stretching.len() != 6 || t.stretching.iter().any(|r| r.len() != 4) {
         return Err(format!(
@@ -163,7 +163,7 @@ fn wor11_fabric(text: &str, scale: f64) -> Result<WovenFabric, String> {
             t.stretching.len()
         ));
     }
-    let k = |row: usize, col: usize| 2.0 * t.stretching[row][col].max(0.0) * scale;
+    let k = |row: usize, col: usize| 2.0 * t.stretching[row][col].max(0.0);
     WovenFabric::stiffening(k(0, 0), k(0, 2), k(1, 0), k(5, 2), k(0, 3) / 4.0)
 }
 
@@ -182,14 +182,10 @@ pub fn fabric(cfg: &Config) -> Result<(WovenFabric, String), Failure> {
             })?,
         };
         let named = |e: String| Failure::Input(anyhow!("[validation] fabric = {name:?}: {e}"));
-        let scale = match v.fabric_scale {
-            Some(k) => k,
-            None => {
-                let f = wor11_fabric(&text, 1.0).map_err(named)?;
-                cfg.material.youngs_modulus / (f.warp * f.weft).sqrt()
-            }
-        };
-        return Ok((wor11_fabric(&text, scale).map_err(named)?, name.clone()));
+        let measured = wor11_fabric(&text).map_err(named)?;
+        let scale =
+            v.fabric_scale.unwrap_or_else(|| cfg.material.youngs_modulus / (measured.warp * measured.weft).sqrt());
+        return Ok((measured.scaled(scale).map_err(named)?, name.clone()));
     }
     let warp = v.warp_stiffness.unwrap_or(cfg.material.youngs_modulus);
     let weft = v.weft_stiffness.unwrap_or(cfg.material.youngs_modulus);
@@ -207,12 +203,7 @@ fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<(FaceData
     let mut folded = 0;
     let mut rest: FaceData<Option<[Vector2; 3]>> = FaceData::from_vec(vec![None; seg.mesh.n_faces()]);
     for fp in &p.flat.patches {
-        let piece = p
-            .pattern
-            .pieces
-            .iter()
-            .find(|q| q.id == fp.patch as usize)
-            .ok_or_else(|| Failure::Internal(anyhow!("patch {} has no pattern piece", fp.patch)))?;
+        let piece = p.piece(fp.patch)?;
         for f in fp.mesh.face_ids() {
             let sf = fp.seg_face[f];
             let corners = fp.mesh.face_vertices(f);
@@ -221,11 +212,10 @@ fn pattern_triangles(seg: &Segmentation, p: &PatternsResult) -> Result<(FaceData
                 let c = corners.iter().find(|&&c| fp.seg_vertex[c] == sv).ok_or_else(|| {
                     Failure::Internal(anyhow!("face {} of piece {} misses a corner of its face", f.idx(), fp.patch))
                 })?;
-                let q = piece.to_roll([fp.uv[*c].x * 1000.0, fp.uv[*c].y * 1000.0]);
+                let q = on_roll_mm(piece, &fp.uv[*c]);
                 tri[k] = Vector2::new(q[0] / 1000.0, q[1] / 1000.0);
             }
-            let (a, b) = (tri[1] - tri[0], tri[2] - tri[0]);
-            if a.x * b.y - a.y * b.x < 0.0 {
+            if (tri[1] - tri[0]).perp(&(tri[2] - tri[0])) < 0.0 {
                 folded += 1;
                 for q in &mut tri {
                     q.y = -q.y;
@@ -261,8 +251,10 @@ fn distances(target: &Mesh, cp: &ClosestPoint<'_>, normals: &VertexData<Vec3>, p
 }
 
 /// Sew, fill and measure.
+#[allow(clippy::too_many_arguments)] // the stage reads every earlier stage's result
 pub fn run(
     cfg: &Config,
+    (fabric, source): &(WovenFabric, String),
     input: &Input,
     sim: &SimResult,
     field: &FieldResult,
@@ -271,7 +263,6 @@ pub fn run(
     progress: &Progress,
 ) -> Result<ValidationResult, Failure> {
     let t0 = Instant::now();
-    let (fabric, source) = fabric(cfg)?;
     // The stiffer yarn belongs along the largest stretch (README, The check).
     let (warp, weft) = (fabric.warp, fabric.weft);
     let against = match cfg.pattern.warp_along {
@@ -297,6 +288,8 @@ pub fn run(
         );
     }
     let cp = ClosestPoint::new(&input.mesh);
+    // Where each segmented vertex lies on the target (they all lie on it).
+    let on_target: Vec<ClosestHit> = seg.mesh.positions().iter().map(|p| cp.query(p)).collect();
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     if cfg.suspension.mode == SuspensionMode::Vertices {
         // The clamped target vertices, on the segmented mesh (every target vertex is one of
@@ -307,7 +300,7 @@ pub fn run(
         let holds = |v: VertexId| match seg.vertex_input[v] {
             Some(t) => held.contains(&t),
             None => {
-                let hit = cp.query(&seg.mesh.position(v));
+                let hit = &on_target[v.idx()];
                 let on: Vec<VertexId> = input
                     .mesh
                     .face_vertices(hit.face)
@@ -327,8 +320,8 @@ pub fn run(
         .mesh
         .positions()
         .iter()
-        .map(|p| {
-            let hit = cp.query(p);
+        .zip(&on_target)
+        .map(|(p, hit)| {
             let t = input.mesh.face_vertices(hit.face);
             (0..3).map(|k| (sim.positions[t[k]] - input.mesh.position(t[k])) * hit.weights[k]).sum::<Vec3>() + p
         })
@@ -351,7 +344,7 @@ pub fn run(
     let normals = input.mesh.vertex_normals();
     let design = distances(&input.mesh, &cp, &normals, &start);
     let stage = progress.stage("checking: the sewn mold, filled");
-    let result = simulate_sewn(&seg.mesh, &rest, &seams, Some(start), &fabric, &sc, &mut |it| {
+    let result = simulate_sewn(&seg.mesh, &rest, &seams, Some(start), fabric, &sc, &mut |it| {
         stage.set_message(format!("checking: Newton iteration {}, residual {:.1e}", it.iteration, it.residual_rel));
     })
     .map_err(|e| {
@@ -397,13 +390,13 @@ pub fn run(
         // target (the map from the face's pattern triangle to its place on the target), against
         // stage 1's on the target face the segmented face lies in: an angle between lines.
         let c = k.strain;
-        let theta = 0.5 * (2.0 * c[2]).atan2(2.0 * (c[0] - c[1]));
+        let theta = sym2_angle(1.0 + 2.0 * c[0], c[2], 1.0 + 2.0 * c[1]);
         let u = Vector2::new(theta.cos(), theta.sin());
         let (tri, uv) = (seg.mesh.face_positions(f), &rest[f]);
         let (a, b) = (uv[1] - uv[0], uv[2] - uv[0]);
-        let det = a.x * b.y - a.y * b.x;
+        let det = a.perp(&b);
         // Pattern coordinates of u in the triangle's edge basis, then the same edges in 3D.
-        let (s1, s2) = ((u.x * b.y - u.y * b.x) / det, (a.x * u.y - a.y * u.x) / det);
+        let (s1, s2) = (u.perp(&b) / det, a.perp(&u) / det);
         let cast = ((tri[1] - tri[0]) * s1 + (tri[2] - tri[0]) * s2).normalize();
         let parent = seg.face_parent[f];
         let iso = input.mesh.face_frame(parent).direction(field.raw.angle[parent]);
@@ -419,7 +412,7 @@ pub fn run(
         newton_iterations: s.newton_iterations,
         residual_rel: s.residual_rel,
         fabric: FabricSummary {
-            source,
+            source: source.clone(),
             warp_stiffness: fabric.warp,
             weft_stiffness: fabric.weft,
             warp_stiffness_stretched: fabric.warp_stretched,
