@@ -52,6 +52,15 @@ impl Constraints {
     pub fn n_fixed(&self, v: VertexId) -> usize {
         self.dirs[v.idx()].len()
     }
+    /// `x` with its components along the vertex's constrained directions taken from `target`
+    /// (a clamped vertex: `target` itself; a free one: `x`).
+    pub fn hold(&self, v: VertexId, x: Vec3, target: Vec3) -> Vec3 {
+        let d = &self.dirs[v.idx()];
+        match d.len() {
+            3 => target,
+            _ => x + d.iter().map(|e| e * e.dot(&(target - x))).sum::<Vec3>(),
+        }
+    }
     /// Vertices with at least one constrained direction.
     pub fn constrained_vertices(&self) -> usize {
         self.dirs.iter().filter(|d| !d.is_empty()).count()
@@ -130,5 +139,16 @@ mod tests {
         assert_eq!(c.frame(VertexId(2)), (None, 3));
         assert_eq!(c.frame(VertexId(0)), (None, 0));
         assert_eq!((c.constrained_vertices(), c.clamped_vertices()), (2, 1));
+    }
+
+    #[test]
+    fn hold_takes_only_the_constrained_components_from_the_target() {
+        let mut c = Constraints::free(3);
+        c.fix_direction(VertexId(1), Vec3::new(0.0, 0.0, 2.0));
+        c.fix_vertex(VertexId(2));
+        let (x, t) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 5.0, 7.0));
+        assert_eq!(c.hold(VertexId(0), x, t), x);
+        assert_eq!(c.hold(VertexId(1), x, t), Vec3::new(1.0, 2.0, 7.0));
+        assert_eq!(c.hold(VertexId(2), x, t), t);
     }
 }

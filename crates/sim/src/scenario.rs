@@ -361,7 +361,8 @@ pub fn simulate(
 /// shared edges; `seams` lists the edges sewn (each with its axial stiffness in N, 0 for a
 /// seam no stiffer than the fabric), which become [`Bar`]s whose rest length is the mean of the
 /// edge's lengths on its two pieces. Solved from `start` (e.g. an earlier equilibrium carried
-/// over; a vertex with a constrained direction starts where the mesh has it) or from the mesh,
+/// over; a vertex's constrained directions start where the mesh has it, its free ones where
+/// `start` has it) or from the mesh,
 /// without the coarse start (a simplified copy has no pattern triangles).
 pub fn simulate_sewn(
     mesh: &Mesh,
@@ -493,7 +494,7 @@ fn simulate_with_rest(
         rest.unwrap_or_else(|| Sewn { elements: Element::for_mesh(mesh), start: None, bars: Vec::new() });
     let start = start.map(|mut x| {
         for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
-            x[v.idx()] = target[v.idx()];
+            x[v.idx()] = constraints.hold(v, x[v.idx()], target[v.idx()]);
         }
         x
     });
