@@ -191,7 +191,9 @@ impl DampingMatrix {
 /// direct solve). Where the single-precision factorization fails (a pivot lost to round-off,
 /// or a matrix not positive definite at that damping) or does not precondition well enough,
 /// that step falls back to double precision; after [`SINGLE_MAX_POOR`] poorly preconditioned
-/// steps the whole solve goes on in double precision.
+/// steps the whole solve goes on in double precision. A failure is told from indefiniteness by
+/// that double-precision factorization only until [`SINGLE_TRUST_AFTER`] have found the
+/// matrix indefinite (and none a lost pivot); later failures raise the damping at once.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FactorPrecision {
@@ -229,6 +231,14 @@ const SINGLE_PCG_MAX_ITER: usize = 20;
 /// Steps whose single-precision factor preconditioned too poorly, after which the solve goes
 /// on in double precision.
 pub const SINGLE_MAX_POOR: usize = 2;
+
+/// Single-precision failures confirmed as indefiniteness by a double-precision factorization
+/// (and none found to be a lost pivot) after which a single-precision failure is taken as
+/// indefiniteness at once. The check's solve (woven fabric, exact geometric term: compressed
+/// yarns make the Hessian indefinite until the damping covers them) met it at every other
+/// step: kitten's check made 45 double-precision confirmations, each about twice a
+/// single-precision factorization's time, none of them a lost pivot.
+pub const SINGLE_TRUST_AFTER: usize = 2;
 
 /// One iteration, for logs and tests.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -303,10 +313,17 @@ pub struct SolveStats {
     /// Of those: a pivot lost in single precision where the double-precision factorization
     /// failed too (the matrix was not positive definite at that damping). The raised
     /// damping's factorizations are then single-precision again: normally one
-    /// double-precision factorization per such fallback.
+    /// double-precision factorization per such fallback, and at most [`SINGLE_TRUST_AFTER`]
+    /// in a solve without lost pivots (later failures are `single_indefinite_unconfirmed`).
     pub single_fallbacks_indefinite: usize,
     /// Of those: a single-precision factor that preconditioned the step too poorly.
     pub single_fallbacks_poor: usize,
+    /// Single-precision factorizations that failed and were taken as the matrix's
+    /// indefiniteness at that damping without a double-precision factorization (the damping
+    /// raised at once): those after a confirmation in the same step, and every one once
+    /// [`SINGLE_TRUST_AFTER`] confirmations have been made in the solve and no failure was a
+    /// lost pivot.
+    pub single_indefinite_unconfirmed: usize,
     /// Trial steps whose overshooting vertices were relaxed ([`crate::relax`]).
     pub relaxations: usize,
     /// Steps accepted after a relaxation.
@@ -492,7 +509,10 @@ pub fn solve(
             // definite at this step's damping: the damping is raised, and the retries go back
             // to single precision, where a failure is then taken as the same indefiniteness
             // (no second double-precision factorization to tell it from a lost pivot).
-            let mut indefinite = false;
+            // After SINGLE_TRUST_AFTER confirmations, and none of the failures a lost pivot, a
+            // single-precision failure is taken as that indefiniteness from the start.
+            let mut indefinite =
+                stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER && stats.single_fallbacks_pivot == 0;
             // Set by that confirmation: the next damping raise returns to single precision
             // (once; a later fallback for range or a poor factor keeps double for the step).
             let mut back_to_single = false;
@@ -522,6 +542,7 @@ pub fn solve(
                     match res {
                         Ok(()) => break true,
                         Err(SolveError::NotPositiveDefinite { .. }) if !single || indefinite => {
+                            stats.single_indefinite_unconfirmed += usize::from(single);
                             mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
                             if mu > 1e12 {
                                 break false;

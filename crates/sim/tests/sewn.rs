@@ -167,3 +167,42 @@ fn sewn_system_matches_finite_differences() {
     assert!((total - ev.energy).abs() < 1e-9 * ev.energy_magnitude, "{total} vs {}", ev.energy);
     common::assert_assembled_derivatives(&mut sys, &x, 0.8, 5);
 }
+
+/// The woven fabric's compressed yarns make the Hessian indefinite at many steps, as in the
+/// check's solve; here a torus whose pattern triangles are 5% longer along the warp (excess
+/// fabric that the yarns buckle under). A single-precision failure is confirmed by a
+/// double-precision factorization of the same matrix only until
+/// [`clothcast_sim::newton::SINGLE_TRUST_AFTER`] confirmations; later ones raise the damping at
+/// once. The damping path is the double-precision solve's, with as many factorizations more as
+/// there were confirmations.
+#[test]
+fn indefinite_woven_steps_trust_single_precision_after_confirmations() {
+    use clothcast_sim::newton::{FactorPrecision, NewtonOptions, SINGLE_TRUST_AFTER};
+    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/torus.obj"));
+    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
+    let scale = 0.5 / mesh.bbox().extent().z;
+    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let fabric = WovenFabric::new(6.0e4, 2.0e4, 1.0e3).unwrap();
+    let rest: FaceData<[Vector2<f64>; 3]> = patterns(&mesh, |c, _| Vec3::z() + Vec3::new(c.y, -c.x, 0.0) * 4.0)
+        .iter()
+        .map(|t| t.map(|q| Vector2::new(q.x * 1.05, q.y)))
+        .collect();
+    let run = |factor_precision| {
+        let sc = Scenario { newton: NewtonOptions { factor_precision, ..Default::default() }, ..Default::default() };
+        let r = simulate_sewn(&mesh, &rest, &[], None, &fabric, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{factor_precision:?}: {:?}", r.stats.termination);
+        r
+    };
+    let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
+    let st = &s.stats.solver;
+    assert_eq!(st.single_fallbacks_indefinite, SINGLE_TRUST_AFTER, "{st:?}");
+    assert_eq!(st.single_fallbacks, st.single_fallbacks_indefinite, "{st:?}");
+    assert_eq!(st.double_factorizations, SINGLE_TRUST_AFTER, "{st:?}");
+    // Indefinite steps after the confirmations, taken as such at once.
+    assert!(st.single_indefinite_unconfirmed > SINGLE_TRUST_AFTER, "{st:?}");
+    assert_eq!(st.factorizations, d.stats.solver.factorizations + SINGLE_TRUST_AFTER);
+    assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);
+    for (a, b) in d.history.iter().zip(&s.history) {
+        assert_eq!((a.damping, a.step), (b.damping, b.step));
+    }
+}
