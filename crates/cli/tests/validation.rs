@@ -210,3 +210,29 @@ fn a_weave_soft_in_shear_turns_the_strain_directions() {
     }
     assert!(turn[0] < 10.0 && turn[1] > 2.0 * turn[0], "{turn:?}");
 }
+
+/// A piece cut far smaller than the target: spot at 0.3 m has a horn tip (60° of angle defect
+/// at one vertex, about 145° over four) inside piece 4, whose pattern there has 5% of the
+/// target's area, and the check stretches the default fabric 4.9× there. The warning names the
+/// piece and the face, not the fabric's softness; on the built-in example, where the patterns
+/// are about the target's size everywhere, the largest stretch is moderate.
+#[test]
+fn a_piece_cut_too_small_is_blamed_not_the_fabric() {
+    let out = tmpdir("validation-shrunk");
+    let spot = data("closed/spot.ply");
+    let t = run_configured("run", &out, "", &[spot.to_str().unwrap(), "--height", "0.3"], 0);
+    let site = &summary(&out)["validation"]["stretch_max_at"];
+    let ratio = site["pattern_area_ratio"].as_f64().unwrap();
+    assert!(site["stretch"].as_f64().unwrap() > 2.5 && ratio < 0.5, "{site}");
+    assert_mentions(
+        &t,
+        &format!("(P{}) is cut far smaller than the target around face {}", site["piece"], site["face"]),
+    );
+    assert!(!t.contains("too soft"), "{t}");
+
+    let out = tmpdir("validation-shrunk-example");
+    let t = run_configured("run", &out, "", &[], 0);
+    let site = &summary(&out)["validation"]["stretch_max_at"];
+    assert!(site["stretch"].as_f64().unwrap() < 1.5 && site["pattern_area_ratio"].as_f64().unwrap() > 0.5, "{site}");
+    assert!(!t.contains("cut far smaller"), "{t}");
+}

@@ -33,6 +33,12 @@ const VISIBLE_SHEAR_DEG: f64 = 5.0;
 const TOO_SOFT_STRETCH: f64 = 2.5;
 const TOO_SOFT_DEVIATION: f64 = 0.25;
 
+/// Where the fabric stretches beyond [`TOO_SOFT_STRETCH`] on a face whose pattern triangle has
+/// less than this share of the target's area, the pattern is blamed, not the fabric: the
+/// flattening shrank the piece there (spot at 0.3 m: a horn tip of 60° angle defect inside a
+/// piece, cut at 5% of its area, stretched 4.9× by the default fabric).
+const SHRUNK_PATTERN: f64 = 0.5;
+
 /// The woven fabric the check used (N/m).
 #[derive(Clone, Debug, Serialize)]
 pub struct FabricSummary {
@@ -106,10 +112,30 @@ pub struct ValidationSummary {
     pub warp_stretch_max: f64,
     /// Largest stretch along the weft.
     pub weft_stretch_max: f64,
+    /// Where a yarn stretches most: the face of `segmentation.ply` (and `cast.ply`), its piece,
+    /// and the area of its triangle on the pattern against the target's (1: cut at the
+    /// target's size; far below 1, the flattening shrank the piece there and the fabric must
+    /// stretch to cover it).
+    pub stretch_max_at: StretchSite,
     /// The Newton solver's details (as `simulation.solver`).
     pub solver: clothcast_sim::newton::SolveStats,
     /// Seconds.
     pub seconds: f64,
+}
+
+/// Where the check's yarns stretch most.
+#[derive(Clone, Debug, Serialize)]
+pub struct StretchSite {
+    /// Face of `segmentation.ply`.
+    pub face: usize,
+    /// The face of the input mesh it lies in (numbered as in the input file).
+    pub input_face: usize,
+    /// Its piece (`P<piece>` on the patterns).
+    pub piece: usize,
+    /// The larger of its warp and weft stretches.
+    pub stretch: f64,
+    /// Its triangle's area on the pattern over its area on the target.
+    pub pattern_area_ratio: f64,
 }
 
 /// The `validation` section of `summary.json`: the check's figures, or why it could not be
@@ -373,6 +399,7 @@ pub fn run(
     let (mut shear_deg, mut warp_stretch, mut weft_stretch) = (Vec::new(), Vec::new(), Vec::new());
     let mut turn = Vec::with_capacity(seg.mesh.n_faces());
     let (mut area, mut shear_area, mut visible) = (0.0, 0.0, 0.0);
+    let mut worst: Option<StretchSite> = None;
     for f in seg.mesh.face_ids() {
         let e = Element::from_plane(&rest[f]).expect("checked by the solve");
         let k = e.kinematics(&seg.mesh.face_vertices(f).map(|v| result.positions[v]));
@@ -386,6 +413,15 @@ pub fn run(
         shear_deg.push(g);
         warp_stretch.push(lu);
         weft_stretch.push(lv);
+        if worst.as_ref().is_none_or(|w| lu.max(lv) > w.stretch) {
+            worst = Some(StretchSite {
+                face: f.idx(),
+                input_face: input.face_to_input[seg.face_parent[f].idx()] as usize,
+                piece: seg.patch_of_face[f] as usize,
+                stretch: lu.max(lv),
+                pattern_area_ratio: e.area / seg.mesh.face_area(f),
+            });
+        }
         // The cast's largest principal stretch, in the pattern's frame, carried onto the
         // target (the map from the face's pattern triangle to its place on the target), against
         // stage 1's on the target face the segmented face lies in: an angle between lines.
@@ -438,13 +474,31 @@ pub fn run(
         strain_direction_change_anisotropic_median_deg: median(turn.iter().filter(|t| t.1).map(|t| t.0).collect()),
         warp_stretch_max: warp_stretch.iter().copied().fold(0.0, f64::max),
         weft_stretch_max: weft_stretch.iter().copied().fold(0.0, f64::max),
+        stretch_max_at: worst.ok_or_else(|| Failure::Internal(anyhow!("the sewn mold has no faces")))?,
         solver: s.solver.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     };
     // A fabric far too soft for the load: the mold balloons (with the level held at the top,
     // the deeper it hangs the higher the pressure: there may be no equilibrium at all).
     let stretch = summary.warp_stretch_max.max(summary.weft_stretch_max);
-    if stretch > TOO_SOFT_STRETCH || summary.deviation_mean_rel > TOO_SOFT_DEVIATION {
+    let site = &summary.stretch_max_at;
+    if stretch > TOO_SOFT_STRETCH && site.pattern_area_ratio < SHRUNK_PATTERN {
+        // Not the fabric: the pattern is too small there.
+        tracing::warn!(
+            "piece {p} (P{p}) is cut far smaller than the target around face {} of segmentation.ply (face {} of the \
+             input): its pattern there has {:.0}% of the target's area, and the sewn fabric stretches up to {:.0}% to \
+             cover it. The flattening shrank a strongly curved region inside the piece (flattening.per_piece \
+             area_ratio_min), usually a cone-like tip, which only a seam ending at it would flatten well, and the \
+             layout places no such seams (darts): round or blunt the target there; a lower [pattern] \
+             max_area_spread (now {}) has the layout split the piece, which may or may not bring the tip onto a seam",
+            site.face,
+            site.input_face,
+            100.0 * site.pattern_area_ratio,
+            100.0 * (stretch - 1.0),
+            cfg.pattern.max_area_spread,
+            p = site.piece
+        );
+    } else if stretch > TOO_SOFT_STRETCH || summary.deviation_mean_rel > TOO_SOFT_DEVIATION {
         tracing::warn!(
             "the check's fabric is too soft for this mold: it stretches up to {:.0}% and the cast deviates by {:.0}% of \
              the target's size on average; a stiffer fabric ([validation], or fabric_scale for a measured one), a lower \
