@@ -236,3 +236,42 @@ fn a_piece_cut_too_small_is_blamed_not_the_fabric() {
     assert!(site["stretch"].as_f64().unwrap() < 1.5 && site["pattern_area_ratio"].as_f64().unwrap() > 0.5, "{site}");
     assert!(!t.contains("cut far smaller"), "{t}");
 }
+
+/// `clothcast run` (every stage, the check included) is deterministic: the same input, options
+/// and seed give the same bytes in every output file, and the same summary but for its timings.
+#[test]
+fn a_whole_run_is_reproducible() {
+    let files = [
+        "deformed.ply",
+        "strain_raw.ply",
+        "cross_field.ply",
+        "segmentation.ply",
+        "seams.obj",
+        "cast.ply",
+        "patterns/pattern.svg",
+        "patterns/pattern.dxf",
+        "patterns/pattern.pdf",
+        "patterns/pattern_a4.pdf",
+        "patterns/flattened.obj",
+    ];
+    /// The summary without its timings (every key naming seconds).
+    fn untimed(v: &serde_json::Value) -> serde_json::Value {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.iter().filter(|(k, _)| !k.contains("seconds")).map(|(k, x)| (k.clone(), untimed(x))).collect()
+            }
+            serde_json::Value::Array(a) => a.iter().map(untimed).collect(),
+            x => x.clone(),
+        }
+    }
+    let (a, b) = (tmpdir("run-seed-a"), tmpdir("run-seed-b"));
+    for d in [&a, &b] {
+        expect_exit(&run_stage("run", d, None, &["--seed", "5"]), 0);
+    }
+    for f in files {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
+    let (sa, sb) = (untimed(&summary(&a)), untimed(&summary(&b)));
+    assert!(sa["validation"]["converged"] == true, "{sa}");
+    assert_eq!(sa, sb);
+}
