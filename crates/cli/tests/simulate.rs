@@ -223,3 +223,18 @@ fn bench_reports_iterations_and_factorization_floor() {
     assert_eq!(v[0]["newton_iterations"], row["newton_iterations"]);
     assert!(v[0]["pcg_iterations"].as_u64().unwrap() >= v[0]["factorizations"].as_u64().unwrap());
 }
+
+/// A fabric far too soft for the load (the built-in example with Y = 1000 N/m, 50 times softer
+/// than the default, stretches by 70%) is warned about, naming the face; the default fabric
+/// (at most 2% there) is not.
+#[test]
+fn an_overstretched_fabric_is_warned_about() {
+    let out = tmpdir("overstretched");
+    let t = run_configured("simulate", &out, "[material]\nyoungs_modulus = 1000.0\n", &[], 0);
+    let l = summary(&out)["simulation"]["lambda_range"][1].as_f64().unwrap().sqrt();
+    assert!(l > 1.5, "{l}");
+    assert_mentions(&t, &format!("the fabric stretches by up to {:.0}% (face ", 100.0 * (l - 1.0)));
+    let out = tmpdir("not-overstretched");
+    let t = run_configured("simulate", &out, "", &[], 0);
+    assert!(!t.contains("the fabric stretches by up to"), "{t}");
+}
