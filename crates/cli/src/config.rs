@@ -192,6 +192,10 @@ pub struct LayoutSection {
     pub merge: bool,
     /// Merges, corner splits and cusp repairs on the final, straightened seams.
     pub late_repairs: bool,
+    /// `clothcast run`: where the flattening shrank a piece around a cone-like tip inside it
+    /// (a triangle at under a tenth of its area), lay the patches out again with a seam through
+    /// each such tip, kept when it shrinks the fabric less.
+    pub cone_cuts: bool,
     /// Split patches whose developability score exceeds this (`inf`: never).
     pub max_developability: f64,
     /// Patches below this share of the area are merged into a neighbour.
@@ -214,6 +218,7 @@ impl Default for LayoutSection {
             follow_streamlines: d.follow_streamlines,
             merge: d.merge,
             late_repairs: d.late_repairs,
+            cone_cuts: true,
             max_developability: d.max_developability,
             min_patch_fraction: d.min_patch_fraction,
             snap: d.snap,

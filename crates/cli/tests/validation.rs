@@ -213,14 +213,16 @@ fn a_weave_soft_in_shear_turns_the_strain_directions() {
 
 /// A piece cut far smaller than the target: spot at 0.3 m has a horn tip (60° of angle defect
 /// at one vertex, about 145° over four) inside piece 4, whose pattern there has 5% of the
-/// target's area, and the check stretches the default fabric 4.9× there. The warning names the
-/// piece and the face, not the fabric's softness; on the built-in example, where the patterns
-/// are about the target's size everywhere, the largest stretch is moderate.
+/// target's area without a seam through it (`cone_cuts = false`), and the check stretches the
+/// default fabric 4.9× there. The warning names the piece and the face, not the fabric's
+/// softness; on the built-in example, where the patterns are about the target's size
+/// everywhere, the largest stretch is moderate.
 #[test]
 fn a_piece_cut_too_small_is_blamed_not_the_fabric() {
     let out = tmpdir("validation-shrunk");
     let spot = data("closed/spot.ply");
-    let t = run_configured("run", &out, "", &[spot.to_str().unwrap(), "--height", "0.3"], 0);
+    let t =
+        run_configured("run", &out, "[layout]\ncone_cuts = false\n", &[spot.to_str().unwrap(), "--height", "0.3"], 0);
     let site = &summary(&out)["validation"]["stretch_max_at"];
     let ratio = site["pattern_area_ratio"].as_f64().unwrap();
     assert!(site["stretch"].as_f64().unwrap() > 2.5 && ratio < 0.5, "{site}");
@@ -274,4 +276,22 @@ fn a_whole_run_is_reproducible() {
     let (sa, sb) = (untimed(&summary(&a)), untimed(&summary(&b)));
     assert!(sa["validation"]["converged"] == true, "{sa}");
     assert_eq!(sa, sb);
+}
+
+/// The same horn tip with the default `cone_cuts`: the first layout's piece shrunk around it
+/// (a triangle at 5% of its area) is laid out again with a seam through the tip; the pieces'
+/// smallest area ratio rises above a tenth, and the check stretches the fabric far less there.
+#[test]
+fn a_cone_like_tip_gets_a_seam_through_it() {
+    let out = tmpdir("validation-cone");
+    let spot = data("closed/spot.ply");
+    let t = run_configured("run", &out, "", &[spot.to_str().unwrap(), "--height", "0.3"], 0);
+    let s = summary(&out);
+    assert_eq!(s["patterns"]["cone_retries"], 1, "{}", s["patterns"]);
+    assert!(s["segmentation"]["cone_cuts"].as_u64().unwrap() >= 1, "{}", s["segmentation"]);
+    let ratio = s["flattening"]["area_ratio_min"].as_f64().unwrap();
+    assert!(ratio > 0.1, "{ratio}");
+    let stretch = s["validation"]["stretch_max_at"]["stretch"].as_f64().unwrap();
+    assert!(stretch < 2.5, "{stretch}");
+    assert!(!t.contains("cut far smaller than the target around face"), "{t}");
 }

@@ -59,7 +59,7 @@ use crate::patches::{
     CornerRule, RegionInfo, edge_between, faces_by_label, patch_labels, patches, patches_with, region_info, seam_edges,
 };
 use crate::remesh::{RemeshOptions, insert_polylines};
-use crate::split::{field_aligned_split, spectral_split, two_sides};
+use crate::split::{field_aligned_split, spectral_split, split_through, two_sides};
 use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
 use crate::vertex_field::VertexField;
 use clothcast_field::{CrossField, Singularity};
@@ -107,6 +107,11 @@ pub struct LayoutOptions {
     pub max_patch_extent: f64,
     /// Patches to split further (what a first layout left too wide for the roll).
     pub split_hints: Vec<SplitHint>,
+    /// Vertices of the input mesh that a seam must run through: cone-like tips (concentrated
+    /// Gaussian curvature) that an earlier layout left inside a piece, where the flattening
+    /// shrank the fabric around them (the CLI finds them). Each is cut through last, on the
+    /// final seams, along the field both ways to its patch's boundary ([`split_through`]).
+    pub cone_cuts: Vec<VertexId>,
     /// Seed of the tracing order and the spectral start vectors.
     pub seed: u64,
 }
@@ -128,6 +133,7 @@ impl Default for LayoutOptions {
             max_splits: 64,
             max_patch_extent: f64::INFINITY,
             split_hints: Vec::new(),
+            cone_cuts: Vec::new(),
             seed: 1,
         }
     }
@@ -211,6 +217,8 @@ pub struct SegmentationStats {
     pub separatrices_failed: usize,
     /// Extra cuts made to obtain disks.
     pub extra_cuts: usize,
+    /// Seams cut through cone-like tips ([`LayoutOptions::cone_cuts`]).
+    pub cone_cuts: usize,
     /// Chains moved onto streamlines of the field before straightening.
     pub rerouted: usize,
     /// Whether the seams are straightened geodesics (false when straightening had to be skipped).
@@ -463,6 +471,14 @@ pub fn segment(
     }
     // Straightening can shrink a patch below the tiny threshold: one more tiny pass.
     stats.merges += tiny_pass(&mut stage, &dirs, final_chords, opts);
+    // Last, the seams through the cone-like tips asked for (no tiny pass after them: it could
+    // merge the two sides of such a seam back).
+    if !opts.cone_cuts.is_empty()
+        && let Some((cut_stage, n)) = cut_cones(&stage, &dirs, &trace_opts, final_chords, opts)
+    {
+        stage = cut_stage;
+        stats.cone_cuts = n;
+    }
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
 
@@ -588,6 +604,55 @@ fn late_splits(
         if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
     })
 }
+
+/// Seams through the cone-like tips of [`LayoutOptions::cone_cuts`] that lie inside a patch of
+/// the final layout ([`split_through`], each side at least [`CONE_MIN_SIDE`] of its patch), then
+/// straightened with every existing seam vertex and the tips pinned, so that the new seams run
+/// from each tip to the patch boundary as geodesics. Kept when straightening succeeds and every
+/// patch is a disk; returns the new stage and the cuts made, or None.
+fn cut_cones(
+    stage: &Stage,
+    dirs: &FaceData<Vec3>,
+    trace: &TraceOptions,
+    chords: usize,
+    opts: &LayoutOptions,
+) -> Option<(Stage, usize)> {
+    let mesh = &stage.mesh;
+    let field_directions = final_field(stage, dirs);
+    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
+    let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
+    let vf = VertexField::from_face_field(mesh, &cross);
+    // The input mesh's vertices keep their ids in every remeshed stage.
+    let tips: Vec<VertexId> = opts.cone_cuts.iter().copied().filter(|v| v.idx() < mesh.n_vertices()).collect();
+    let (seam, n) = on_stage(stage, dirs, chords, |state, _| state.split_cones(&tips, &vf, trace));
+    if n == 0 {
+        return None;
+    }
+    let mut pins = network::seam_degree(mesh, &stage.seam).map(|&d| d > 0);
+    for &v in &tips {
+        pins[v] = true;
+    }
+    let alt = Stage { seam, ..stage.clone() };
+    match smooth_quiet(alt, &pins, opts) {
+        Ok((alt, true)) => {
+            let p = patches_with(&alt.mesh, &alt.seam, &CornerRule::new(&alt.mesh, &alt.index).with_chords(chords));
+            let disks = (0..p.n).all(|i| p.is_disk(i));
+            tracing::debug!(cuts = n, disks, "cone cuts");
+            disks.then_some((alt, n))
+        }
+        Ok((_, false)) => {
+            tracing::debug!(cuts = n, "cone cuts dropped: straightening would change the patches");
+            None
+        }
+        Err(e) => {
+            tracing::debug!(cuts = n, error = %e, "cone cuts dropped: straightening failed");
+            None
+        }
+    }
+}
+
+/// Smallest share of its patch's area on either side of a seam cut through a cone-like tip.
+const CONE_MIN_SIDE: f64 = 0.05;
 
 /// A repair of the final, straightened seams: `propose` changes the seams of the merge/split
 /// state (at most `budget` changes; returns how many), the new seams are straightened with
@@ -1263,6 +1328,28 @@ impl<'a> State<'a> {
         self.split_from(vf, trace, max_splits, |info| {
             info.candidates.iter().filter(|&&(_, q)| q >= CONCAVE_QUARTERS).map(|&(v, _)| v).collect()
         })
+    }
+
+    /// Cut the patches that hold one of `tips` inside through it ([`split_through`]), in the
+    /// order listed; returns the cuts made. A side may come out tiny (a tip near its patch's
+    /// boundary): a small piece to sew is better than fabric cut far too small.
+    fn split_cones(&mut self, tips: &[VertexId], vf: &VertexField, trace: &TraceOptions) -> usize {
+        let mut cuts = 0;
+        for &tip in tips {
+            let Some(h) = self.mesh.outgoing(tip).next() else { continue };
+            let p = self.label[self.mesh.face(h)];
+            let label = |f: FaceId| self.label[f];
+            let seam = |e: EdgeId| self.seam[e];
+            let faces = &self.faces[p as usize];
+            let Some(split) = split_through(self.mesh, faces, &label, &seam, tip, vf, trace, &self.rule, CONE_MIN_SIDE)
+            else {
+                tracing::debug!(tip = tip.idx(), patch = p, "no cut through the tip");
+                continue;
+            };
+            self.apply_split(p, split.a, split.b);
+            cuts += 1;
+        }
+        cuts
     }
 
     /// Split non-quad patches from their corners (convex ones too, where

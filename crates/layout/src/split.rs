@@ -341,14 +341,45 @@ pub fn field_aligned_split(
             _ => return None,
         }
     }
-    let on_boundary = |v: VertexId| -> bool {
-        mesh.is_boundary_vertex(v) || mesh.outgoing(v).any(|h| seam(mesh.edge(h)) || label(mesh.face(h)) != own)
-    };
+    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
     // The middle interior vertex of the interface.
     let interior: Vec<VertexId> = path.iter().copied().filter(|&v| !on_boundary(v)).collect();
     let m = *interior.get(interior.len() / 2)?;
     let chord = mesh.position(*path.last()?) - mesh.position(path[0]);
     let (k, _) = vf.best_arm(m, &chord);
+    let cut = cut_through(mesh, faces, label, seam, m, k, vf, trace, rule, (2.0 / 3.0) * MIN_SIDE)?;
+    Some(Split { ncut: split.ncut, ..cut })
+}
+
+/// On the boundary of patch `own`: on the mesh's boundary, a seam, or a face of another patch.
+fn on_patch_boundary(
+    mesh: &Mesh,
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    own: u32,
+    v: VertexId,
+) -> bool {
+    mesh.is_boundary_vertex(v) || mesh.outgoing(v).any(|h| seam(mesh.edge(h)) || label(mesh.face(h)) != own)
+}
+
+/// Cut the patch of `faces` through its interior vertex `m`: trace along the field's arm `k`
+/// and the opposite one until the patch boundary. `None` unless that gives two disks with at
+/// least `min_side` of the area each (`ncut` is left 0).
+#[allow(clippy::too_many_arguments)]
+fn cut_through(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    m: VertexId,
+    k: usize,
+    vf: &VertexField,
+    trace: &TraceOptions,
+    rule: &CornerRule,
+    min_side: f64,
+) -> Option<Split> {
+    let own = label(faces[0]);
+    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
     let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
     let seam_at =
         |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
@@ -372,13 +403,43 @@ pub fn field_aligned_split(
     let (a, b) = two_sides(mesh, faces, &|e| seam(e) || cut_edges.contains(&e))?;
     let area = |fs: &[FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
     let (aa, ab) = (area(&a), area(&b));
-    if aa.min(ab) < (2.0 / 3.0) * MIN_SIDE * (aa + ab) {
+    if aa.min(ab) < min_side * (aa + ab) {
         return None;
     }
     let side_label = |f: FaceId| side_label(label(f), own, &a, f);
     let info_a = region_info(mesh, &a, &side_label, seam, rule);
     let info_b = region_info(mesh, &b, &side_label, seam, rule);
-    (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: split.ncut })
+    (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: 0.0 })
+}
+
+/// Cut a patch through its interior vertex `tip` (a cone-like tip, which a flattening can only
+/// lay flat without shrinking the fabric around it when a seam runs through it): along the field
+/// both ways from the tip to the patch boundary, on whichever of the field's two lines through
+/// it gives two disks with the larger smaller side (each at least `min_side` of the area).
+/// `None` when `tip` lies on the patch boundary or neither line gives two such disks.
+#[allow(clippy::too_many_arguments)]
+pub fn split_through(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    tip: VertexId,
+    vf: &VertexField,
+    trace: &TraceOptions,
+    rule: &CornerRule,
+    min_side: f64,
+) -> Option<Split> {
+    let own = label(*faces.first()?);
+    if on_patch_boundary(mesh, label, seam, own, tip) {
+        return None;
+    }
+    let smaller = |s: &Split| {
+        let area = |fs: &[FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
+        area(&s.a).min(area(&s.b))
+    };
+    (0..2)
+        .filter_map(|k| cut_through(mesh, faces, label, seam, tip, k, vf, trace, rule, min_side))
+        .max_by(|x, y| smaller(x).total_cmp(&smaller(y)))
 }
 
 #[cfg(test)]

@@ -367,3 +367,27 @@ fn patches_are_split_to_the_size_limit_and_the_hints() {
         assert!(e <= 0.5 * extent * 1.15, "patch {q}: extent {e} against {}", 0.5 * extent);
     }
 }
+
+/// A vertex asked for in `cone_cuts` that lies inside a patch gets a seam through it (the cube
+/// layout of a sphere: the vertex nearest a cube face's centre, in the middle of its patch):
+/// it ends up on the boundary of two patches, all patches stay disks, and nothing changes
+/// without the request.
+#[test]
+fn a_cone_cut_runs_a_seam_through_the_tip() {
+    let mesh = shapes::icosphere(3, 1.0);
+    let (field, sing) = cube_field(&mesh);
+    let plain = segment(&mesh, &field, &sing, &LayoutOptions::default()).unwrap();
+    check_valid("plain", &plain);
+    assert_eq!(plain.stats.cone_cuts, 0);
+    let tip = mesh.vertices().max_by(|&a, &b| mesh.position(a).z.total_cmp(&mesh.position(b).z)).unwrap();
+    // Patches around a vertex of a layout's mesh (input vertices keep their ids).
+    let around = |seg: &Segmentation| -> BTreeSet<u32> {
+        seg.mesh.outgoing(tip).map(|h| seg.patch_of_face[seg.mesh.face(h)]).collect()
+    };
+    assert_eq!(around(&plain).len(), 1, "the tip lies inside a patch");
+    let cut = segment(&mesh, &field, &sing, &LayoutOptions { cone_cuts: vec![tip], ..Default::default() }).unwrap();
+    check_valid("cut", &cut);
+    assert_eq!(cut.stats.cone_cuts, 1);
+    assert_eq!(cut.stats.patches, plain.stats.patches + 1);
+    assert_eq!(around(&cut).len(), 2, "a seam runs through the tip");
+}

@@ -11,8 +11,8 @@ use crate::stages::validation::ValidationOutcome;
 use crate::summary::{StageTime, Stages, Summary};
 use anyhow::Context;
 use clothcast_layout::{Segmentation, SplitHint, patch_extent};
-use clothcast_mesh::FaceId;
 use clothcast_mesh::io::write_atomic;
+use clothcast_mesh::{FaceId, VertexId};
 use std::time::Instant;
 
 /// Layouts made again, smaller, when a piece did not fit the roll (unless the same pieces come
@@ -126,23 +126,48 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     // layout so far.
     let mut distortion_retries = 0;
     let mut best: Option<(Segmentation, stages::patterns::PatternsResult)> = None;
+    // Cone-like tips inside pieces the flattening shrank around them: one layout made again with
+    // a seam through each, kept when its most shrunk triangle is larger (the layout before it
+    // waits in `before_cones`).
+    let mut cones: Vec<VertexId> = Vec::new();
+    let mut cones_tried = false;
+    let mut before_cones: Option<(Segmentation, stages::patterns::PatternsResult)> = None;
+    let mut resume: Option<(Segmentation, stages::patterns::PatternsResult)> = None;
     // Time of every layout made, and of the flattening and patterns of the ones redone.
     let (mut layout_seconds, mut redone_seconds) = (0.0, 0.0);
     let (segmentation, patterns) = loop {
         let Some(f) = field.as_ref().filter(|_| until >= Until::Segmentation) else { break (None, None) };
-        let seg = stages::segmentation::run(&cfg, &input, f, &hints, progress)?;
-        layout_seconds += seg.stats.seconds;
-        if until < Until::Patterns {
-            break (Some(seg), None);
-        }
-        let attempt = Instant::now();
-        let result = stages::patterns::run(&cfg, &input, f, &seg, progress);
+        // Time of the flattening and patterns (the layout's is counted apart).
+        let mut attempt = Instant::now();
+        let (seg, result) = match resume.take() {
+            // The layout before the seams through the tips, taken back.
+            Some((seg, p)) => (seg, Ok(p)),
+            None => {
+                let seg = stages::segmentation::run(&cfg, &input, f, &hints, &cones, progress)?;
+                layout_seconds += seg.stats.seconds;
+                if until < Until::Patterns {
+                    break (Some(seg), None);
+                }
+                attempt = Instant::now();
+                let result = stages::patterns::run(&cfg, &input, f, &seg, progress);
+                (seg, result)
+            }
+        };
         let too_wide = match &result {
             Err(Failure::Input(e)) => {
                 e.downcast_ref::<stages::patterns::TooWide>().map(|t| (t.to_string(), t.pieces.clone()))
             }
             _ => None,
         };
+        if before_cones.is_some() && result.is_err() {
+            // The layout with the seams through the tips failed (a piece too wide, or another
+            // error): the one before it stands.
+            progress.say("the layout with seams through the tips failed: keeping the layout before it");
+            cones.clear();
+            resume = before_cones.take();
+            redone_seconds += attempt.elapsed().as_secs_f64();
+            continue;
+        }
         match (result, too_wide) {
             // A layout made again for distorted pieces that fails (a piece too wide, or
             // another error): the complete layout before it stands.
@@ -211,6 +236,35 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 return Err(e);
             }
             (Ok(p), _) => {
+                // Pieces shrunk around a cone-like tip inside them: the tips are cut through in
+                // a layout made again (once), which is kept if it shrinks the fabric less.
+                if !cones_tried && cfg.layout.cone_cuts {
+                    cones = stages::patterns::shrunk_tips(&seg, &p, input.mesh.n_vertices());
+                    if !cones.is_empty() {
+                        cones_tried = true;
+                        progress.say(format!(
+                            "{} piece(s) cut far smaller than the target around a cone-like tip (area ratio under {}): \
+                             laying the patches out again with a seam through each tip",
+                            cones.len(),
+                            stages::patterns::SHRUNK_PIECE
+                        ));
+                        before_cones = Some((seg, p));
+                        redone_seconds += attempt.elapsed().as_secs_f64();
+                        continue;
+                    }
+                }
+                let (seg, p) = match before_cones.take() {
+                    Some((s0, p0)) if p0.flat.report.area_ratio_min >= p.flat.report.area_ratio_min => {
+                        progress.say(format!(
+                            "the seams through the tips did not help (smallest area ratio {:.3} against {:.3}): \
+                             keeping the layout before them",
+                            p.flat.report.area_ratio_min, p0.flat.report.area_ratio_min
+                        ));
+                        cones.clear();
+                        (s0, p0)
+                    }
+                    _ => (seg, p),
+                };
                 // Pieces that came out badly distorted (a corner or a strongly curved region
                 // inside them, which the developability score misses) are split in a new
                 // layout, up to DISTORTION_RETRIES times while that lowers their count; the
@@ -254,6 +308,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
             p.summary.files = files;
             p.summary.layout_retries = retries;
             p.summary.distortion_retries = distortion_retries;
+            p.summary.cone_retries = usize::from(cones_tried);
             stages.flattening = Some(StageTime { seconds: p.flat.report.seconds + redone_seconds });
             stages.patterns = Some(StageTime { seconds: p.summary.seconds });
             Some(p)

@@ -42,6 +42,9 @@ pub struct PatternsSummary {
     /// Layouts made again to split pieces that came out badly distorted
     /// (`flattening.distorted_pieces`), at most two.
     pub distortion_retries: usize,
+    /// Layouts made again with a seam through the cone-like tips of pieces shrunk around them
+    /// (`[layout] cone_cuts`; 0 or 1; `segmentation.cone_cuts` says whether it was kept).
+    pub cone_retries: usize,
     /// Seconds.
     pub seconds: f64,
 }
@@ -233,6 +236,7 @@ pub fn run(
         files: Vec::new(),
         layout_retries: 0,
         distortion_retries: 0,
+        cone_retries: 0,
         seconds: t1.elapsed().as_secs_f64(),
     };
     progress.say(format!(
@@ -346,4 +350,53 @@ pub fn write_outputs(
     .internal()?;
     files.push("patterns/flattened.obj".into());
     Ok(files)
+}
+
+/// A piece whose flattening shrank some triangle below this share of its area on the target
+/// is searched for a cone-like tip to cut through ([`shrunk_tips`]). The README models at 0.5 m
+/// stay above 0.17; spot at 0.3 m has a horn tip inside a piece at 0.047.
+pub const SHRUNK_PIECE: f64 = 0.1;
+
+/// Least angle defect of a tip worth a seam through it (radians; 20°).
+const TIP_DEFECT: f64 = std::f64::consts::PI / 9.0;
+
+/// The cone-like tips inside the pieces the flattening shrank (a triangle at under
+/// [`SHRUNK_PIECE`] of its area): per such piece, of the corners of its most shrunk triangle
+/// and their neighbours inside the piece, the input vertex with the largest angle defect (at
+/// least 20°); a flattening shrinks the fabric most at such a tip. Vertices of the input mesh,
+/// largest defect first.
+pub fn shrunk_tips(seg: &Segmentation, p: &PatternsResult, n_input_vertices: usize) -> Vec<VertexId> {
+    let mesh = &seg.mesh;
+    let angles = mesh.corner_angles();
+    let defect = |v: VertexId| 2.0 * std::f64::consts::PI - mesh.outgoing(v).map(|h| angles[h]).sum::<f64>();
+    let mut tips: Vec<(f64, VertexId)> = Vec::new();
+    for fp in p.flat.patches.iter().filter(|fp| fp.stats.area_ratio_min < SHRUNK_PIECE) {
+        let ratio = |f| {
+            let [a, b, c] = fp.mesh.face_vertices(f).map(|v| fp.uv[v]);
+            0.5 * (b - a).perp(&(c - a)) / fp.mesh.face_area(f).max(f64::MIN_POSITIVE)
+        };
+        let Some(worst) = fp.mesh.face_ids().min_by(|&x, &y| ratio(x).total_cmp(&ratio(y))) else { continue };
+        // Inside the piece: every face around it on this piece, off the mesh's boundary.
+        let inside = |v: VertexId| {
+            !mesh.is_boundary_vertex(v) && mesh.outgoing(v).all(|h| seg.patch_of_face[mesh.face(h)] == fp.patch)
+        };
+        let mut near: Vec<VertexId> = Vec::new();
+        for c in fp.mesh.face_vertices(worst) {
+            let v = fp.seg_vertex[c];
+            near.push(v);
+            near.extend(mesh.outgoing(v).map(|h| mesh.head(h)));
+        }
+        let best = near
+            .into_iter()
+            .filter(|&v| v.idx() < n_input_vertices && inside(v))
+            .map(|v| (defect(v), v))
+            .filter(|&(d, _)| d >= TIP_DEFECT)
+            .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)));
+        if let Some(t) = best {
+            tips.push(t);
+        }
+    }
+    tips.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+    tips.dedup_by_key(|t| t.1);
+    tips.into_iter().map(|t| t.1).collect()
 }

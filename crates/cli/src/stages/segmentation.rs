@@ -7,8 +7,8 @@ use crate::progress::Progress;
 use anyhow::Context;
 use clothcast_field::FieldResult;
 use clothcast_layout::{LayoutOptions, Segmentation, SplitHint, segment};
-use clothcast_mesh::Vec3;
 use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
+use clothcast_mesh::{Vec3, VertexId};
 use std::io::Write;
 use std::path::Path;
 
@@ -29,8 +29,9 @@ pub fn roll_too_narrow(cfg: &Config, area_m2: f64) -> bool {
 }
 
 /// The library options from the scenario, with the patches to split further (`hints`, from
-/// earlier layouts whose pieces did not fit the roll).
-pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
+/// earlier layouts whose pieces did not fit the roll) and the tips to cut through (`cones`, from
+/// an earlier layout's pieces shrunk around them).
+pub fn options(cfg: &Config, hints: &[SplitHint], cones: &[VertexId]) -> LayoutOptions {
     let l = &cfg.layout;
     LayoutOptions {
         drift_penalty: l.drift_penalty,
@@ -51,6 +52,7 @@ pub fn options(cfg: &Config, hints: &[SplitHint]) -> LayoutOptions {
         // split in a new layout (the `run` command).
         max_patch_extent: (cfg.pattern.usable_width_m() * EXTENT_ALLOWANCE).max(0.0),
         split_hints: hints.to_vec(),
+        cone_cuts: cones.to_vec(),
         seed: cfg.seed,
     }
 }
@@ -61,6 +63,7 @@ pub fn run(
     input: &Input,
     field: &FieldResult,
     hints: &[SplitHint],
+    cones: &[VertexId],
     progress: &Progress,
 ) -> Result<Segmentation, Failure> {
     let (w, a) = (cfg.pattern.fabric_width_mm, cfg.pattern.seam_allowance_mm);
@@ -75,7 +78,7 @@ pub fn run(
         )));
     }
     let stage = progress.stage("segmenting into patches");
-    let seg = segment(&input.mesh, &field.field, &field.singularities, &options(cfg, hints)).internal()?;
+    let seg = segment(&input.mesh, &field.field, &field.singularities, &options(cfg, hints, cones)).internal()?;
     drop(stage);
     let s = &seg.stats;
     progress.say(format!(

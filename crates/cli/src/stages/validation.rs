@@ -35,8 +35,9 @@ const TOO_SOFT_DEVIATION: f64 = 0.25;
 
 /// Where the fabric stretches beyond [`TOO_SOFT_STRETCH`] on a face whose pattern triangle has
 /// less than this share of the target's area, the pattern is blamed, not the fabric: the
-/// flattening shrank the piece there (spot at 0.3 m: a horn tip of 60° angle defect inside a
-/// piece, cut at 5% of its area, stretched 4.9× by the default fabric).
+/// flattening shrank the piece there (spot at 0.3 m with `[layout] cone_cuts = false`: a horn
+/// tip of 60° angle defect inside a piece, cut at 5% of its area, stretched 4.9× by the default
+/// fabric).
 const SHRUNK_PATTERN: f64 = 0.5;
 
 /// The woven fabric the check used (N/m).
