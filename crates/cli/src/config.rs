@@ -193,8 +193,9 @@ pub struct LayoutSection {
     /// Merges, corner splits and cusp repairs on the final, straightened seams.
     pub late_repairs: bool,
     /// `clothcast run`: where the flattening shrank a piece around a cone-like tip inside it
-    /// (a triangle at under a tenth of its area), lay the patches out again with a seam through
-    /// each such tip, kept when it shrinks the fabric less.
+    /// (a triangle at under a tenth of its area), lay the patches out again with a dart to each
+    /// such tip (or a cut through it where no dart can be made), kept when it shrinks the fabric
+    /// less.
     pub cone_cuts: bool,
     /// Split patches whose developability score exceeds this (`inf`: never).
     pub max_developability: f64,

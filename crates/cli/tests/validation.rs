@@ -279,8 +279,9 @@ fn a_whole_run_is_reproducible() {
 }
 
 /// The same horn tip with the default `cone_cuts`: the first layout's piece shrunk around it
-/// (a triangle at 5% of its area) is laid out again with a seam through the tip; the pieces'
-/// smallest area ratio rises above a tenth, and the check stretches the fabric far less there.
+/// (a triangle at 5% of its area) is laid out again with a dart to the tip (the piece kept
+/// whole, no tiny piece); the pieces' smallest area ratio rises above a tenth, and the check
+/// stretches the fabric far less there.
 #[test]
 fn a_cone_like_tip_gets_a_seam_through_it() {
     let out = tmpdir("validation-cone");
@@ -289,6 +290,8 @@ fn a_cone_like_tip_gets_a_seam_through_it() {
     let s = summary(&out);
     assert_eq!(s["patterns"]["cone_retries"], 1, "{}", s["patterns"]);
     assert!(s["segmentation"]["cone_cuts"].as_u64().unwrap() >= 1, "{}", s["segmentation"]);
+    assert_eq!(s["segmentation"]["darts"], true, "{}", s["segmentation"]);
+    assert_eq!(s["segmentation"]["tiny_patches"], 0, "{}", s["segmentation"]);
     let ratio = s["flattening"]["area_ratio_min"].as_f64().unwrap();
     assert!(ratio > 0.1, "{ratio}");
     let stretch = s["validation"]["stretch_max_at"]["stretch"].as_f64().unwrap();

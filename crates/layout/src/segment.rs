@@ -59,7 +59,7 @@ use crate::patches::{
     CornerRule, RegionInfo, edge_between, faces_by_label, patch_labels, patches, patches_with, region_info, seam_edges,
 };
 use crate::remesh::{RemeshOptions, insert_polylines};
-use crate::split::{field_aligned_split, spectral_split, split_through, two_sides};
+use crate::split::{dart_path, field_aligned_split, spectral_split, split_through, two_sides};
 use crate::trace::{SeparatrixEnd, TraceOptions, field_path, trace_separatrices};
 use crate::vertex_field::VertexField;
 use clothcast_field::{CrossField, Singularity};
@@ -107,10 +107,11 @@ pub struct LayoutOptions {
     pub max_patch_extent: f64,
     /// Patches to split further (what a first layout left too wide for the roll).
     pub split_hints: Vec<SplitHint>,
-    /// Vertices of the input mesh that a seam must run through: cone-like tips (concentrated
-    /// Gaussian curvature) that an earlier layout left inside a piece, where the flattening
-    /// shrank the fabric around them (the CLI finds them). Each is cut through last, on the
-    /// final seams, along the field both ways to its patch's boundary ([`split_through`]).
+    /// Vertices of the input mesh that a seam must reach: cone-like tips (concentrated Gaussian
+    /// curvature) that an earlier layout left inside a piece, where the flattening shrank the
+    /// fabric around them (the CLI finds them). Each gets its seam last, on the final seams: a
+    /// dart, a seam along the field from its patch's boundary ending at the tip
+    /// ([`dart_path`]), or where that fails a cut through it both ways ([`split_through`]).
     pub cone_cuts: Vec<VertexId>,
     /// Seed of the tracing order and the spectral start vectors.
     pub seed: u64,
@@ -217,8 +218,11 @@ pub struct SegmentationStats {
     pub separatrices_failed: usize,
     /// Extra cuts made to obtain disks.
     pub extra_cuts: usize,
-    /// Seams cut through cone-like tips ([`LayoutOptions::cone_cuts`]).
+    /// Seams run to or through cone-like tips ([`LayoutOptions::cone_cuts`]).
     pub cone_cuts: usize,
+    /// Whether those seams are darts (each a seam from its patch's boundary ending at the tip,
+    /// the patch kept whole) rather than cuts through the tip into two patches.
+    pub darts: bool,
     /// Chains moved onto streamlines of the field before straightening.
     pub rerouted: usize,
     /// Whether the seams are straightened geodesics (false when straightening had to be skipped).
@@ -474,10 +478,11 @@ pub fn segment(
     // Last, the seams through the cone-like tips asked for (no tiny pass after them: it could
     // merge the two sides of such a seam back).
     if !opts.cone_cuts.is_empty()
-        && let Some((cut_stage, n)) = cut_cones(&stage, &dirs, &trace_opts, final_chords, opts)
+        && let Some((cut_stage, n, darts)) = cut_cones(&stage, &dirs, &trace_opts, final_chords, opts)
     {
         stage = cut_stage;
         stats.cone_cuts = n;
+        stats.darts = darts;
     }
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
@@ -606,17 +611,19 @@ fn late_splits(
 }
 
 /// Seams through the cone-like tips of [`LayoutOptions::cone_cuts`] that lie inside a patch of
-/// the final layout ([`split_through`], each side at least [`CONE_MIN_SIDE`] of its patch), then
-/// straightened with every existing seam vertex and the tips pinned, so that the new seams run
-/// from each tip to the patch boundary as geodesics. Kept when straightening succeeds and every
-/// patch is a disk; returns the new stage and the cuts made, or None.
+/// the final layout: a dart first (a seam from the patch's boundary to the tip, the patch kept
+/// whole, [`dart_path`]), else a cut through the tip into two patches ([`split_through`], each
+/// side at least [`CONE_MIN_SIDE`] of its patch); straightened with every existing seam vertex
+/// and the tips pinned, so that the new seams run to each tip as geodesics. Kept when
+/// straightening succeeds and every patch is a disk; returns the new stage, the seams made and
+/// whether they are darts, or None.
 fn cut_cones(
     stage: &Stage,
     dirs: &FaceData<Vec3>,
     trace: &TraceOptions,
     chords: usize,
     opts: &LayoutOptions,
-) -> Option<(Stage, usize)> {
+) -> Option<(Stage, usize, bool)> {
     let mesh = &stage.mesh;
     let field_directions = final_field(stage, dirs);
     let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
@@ -624,31 +631,35 @@ fn cut_cones(
     let vf = VertexField::from_face_field(mesh, &cross);
     // The input mesh's vertices keep their ids in every remeshed stage.
     let tips: Vec<VertexId> = opts.cone_cuts.iter().copied().filter(|v| v.idx() < mesh.n_vertices()).collect();
-    let (seam, n) = on_stage(stage, dirs, chords, |state, _| state.split_cones(&tips, &vf, trace));
-    if n == 0 {
-        return None;
-    }
     let mut pins = network::seam_degree(mesh, &stage.seam).map(|&d| d > 0);
     for &v in &tips {
         pins[v] = true;
     }
-    let alt = Stage { seam, ..stage.clone() };
-    match smooth_quiet(alt, &pins, opts) {
-        Ok((alt, true)) => {
-            let p = patches_with(&alt.mesh, &alt.seam, &CornerRule::new(&alt.mesh, &alt.index).with_chords(chords));
-            let disks = (0..p.n).all(|i| p.is_disk(i));
-            tracing::debug!(cuts = n, disks, "cone cuts");
-            disks.then_some((alt, n))
+    [true, false].into_iter().find_map(|darts| {
+        let (seam, n) = on_stage(stage, dirs, chords, |state, _| {
+            if darts { state.dart_cones(&tips, &vf, trace) } else { state.split_cones(&tips, &vf, trace) }
+        });
+        if n == 0 {
+            return None;
         }
-        Ok((_, false)) => {
-            tracing::debug!(cuts = n, "cone cuts dropped: straightening would change the patches");
-            None
+        let alt = Stage { seam, ..stage.clone() };
+        match smooth_quiet(alt, &pins, opts) {
+            Ok((alt, true)) => {
+                let p = patches_with(&alt.mesh, &alt.seam, &CornerRule::new(&alt.mesh, &alt.index).with_chords(chords));
+                let disks = (0..p.n).all(|i| p.is_disk(i));
+                tracing::debug!(seams = n, darts, disks, "cone cuts");
+                disks.then_some((alt, n, darts))
+            }
+            Ok((_, false)) => {
+                tracing::debug!(seams = n, darts, "cone cuts dropped: straightening would change the patches");
+                None
+            }
+            Err(e) => {
+                tracing::debug!(seams = n, darts, error = %e, "cone cuts dropped: straightening failed");
+                None
+            }
         }
-        Err(e) => {
-            tracing::debug!(cuts = n, error = %e, "cone cuts dropped: straightening failed");
-            None
-        }
-    }
+    })
 }
 
 /// Smallest share of its patch's area on either side of a seam cut through a cone-like tip.
@@ -1328,6 +1339,29 @@ impl<'a> State<'a> {
         self.split_from(vf, trace, max_splits, |info| {
             info.candidates.iter().filter(|&&(_, q)| q >= CONCAVE_QUARTERS).map(|&(v, _)| v).collect()
         })
+    }
+
+    /// Slit the patches that hold one of `tips` inside from their boundary to it (a dart,
+    /// [`dart_path`]), in the order listed; returns the darts made.
+    fn dart_cones(&mut self, tips: &[VertexId], vf: &VertexField, trace: &TraceOptions) -> usize {
+        let mut darts = 0;
+        for &tip in tips {
+            let Some(h) = self.mesh.outgoing(tip).next() else { continue };
+            let p = self.label[self.mesh.face(h)];
+            let label = |f: FaceId| self.label[f];
+            let seam = |e: EdgeId| self.seam[e];
+            let Some(path) = dart_path(self.mesh, &self.faces[p as usize], &label, &seam, tip, vf, trace) else {
+                tracing::debug!(tip = tip.idx(), patch = p, "no dart to the tip");
+                continue;
+            };
+            for w in path.windows(2) {
+                if let Some(e) = edge_between(self.mesh, w[0], w[1]) {
+                    self.seam[e] = true;
+                }
+            }
+            darts += 1;
+        }
+        darts
     }
 
     /// Cut the patches that hold one of `tips` inside through it ([`split_through`]), in the

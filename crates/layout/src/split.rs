@@ -412,6 +412,34 @@ fn cut_through(
     (info_a.is_disk() && info_b.is_disk()).then_some(Split { a, b, info_a, info_b, ncut: 0.0 })
 }
 
+/// A dart's seam: from the patch's interior vertex `tip` along the field to the patch's
+/// boundary, on whichever of the four arms gives the shortest path (the tip's vertices from
+/// `tip` on). The patch stays one piece, slit from its boundary to the tip, where a flattening
+/// opens the slit into a wedge as wide as the tip's angle defect. `None` when `tip` lies on
+/// the patch boundary or no arm reaches it.
+pub fn dart_path(
+    mesh: &Mesh,
+    faces: &[FaceId],
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    tip: VertexId,
+    vf: &VertexField,
+    trace: &TraceOptions,
+) -> Option<Vec<VertexId>> {
+    let own = label(*faces.first()?);
+    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
+    if on_boundary(tip) {
+        return None;
+    }
+    let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
+    let seam_at =
+        |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
+    let length = |p: &[VertexId]| p.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum::<f64>();
+    (0..4)
+        .filter_map(|k| field_path(mesh, vf, tip, k, None, trace, &|v| touches(v), &on_boundary, &seam_at))
+        .min_by(|a, b| length(a).total_cmp(&length(b)))
+}
+
 /// Cut a patch through its interior vertex `tip` (a cone-like tip, which a flattening can only
 /// lay flat without shrinking the fabric around it when a seam runs through it): along the field
 /// both ways from the tip to the patch boundary, on whichever of the field's two lines through

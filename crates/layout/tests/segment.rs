@@ -368,26 +368,52 @@ fn patches_are_split_to_the_size_limit_and_the_hints() {
     }
 }
 
-/// A vertex asked for in `cone_cuts` that lies inside a patch gets a seam through it (the cube
-/// layout of a sphere: the vertex nearest a cube face's centre, in the middle of its patch):
-/// it ends up on the boundary of two patches, all patches stay disks, and nothing changes
-/// without the request.
+/// A vertex asked for in `cone_cuts` that lies inside a patch gets a dart (the cube layout of a
+/// sphere: the vertex nearest a cube face's centre, in the middle of its patch): a seam from the
+/// patch's boundary ending at the tip, both its sides the same patch, the patch count and
+/// every patch a disk kept; nothing changes without the request.
 #[test]
-fn a_cone_cut_runs_a_seam_through_the_tip() {
+fn a_cone_cut_gives_the_tip_a_dart() {
     let mesh = shapes::icosphere(3, 1.0);
     let (field, sing) = cube_field(&mesh);
     let plain = segment(&mesh, &field, &sing, &LayoutOptions::default()).unwrap();
     check_valid("plain", &plain);
     assert_eq!(plain.stats.cone_cuts, 0);
     let tip = mesh.vertices().max_by(|&a, &b| mesh.position(a).z.total_cmp(&mesh.position(b).z)).unwrap();
-    // Patches around a vertex of a layout's mesh (input vertices keep their ids).
-    let around = |seg: &Segmentation| -> BTreeSet<u32> {
-        seg.mesh.outgoing(tip).map(|h| seg.patch_of_face[seg.mesh.face(h)]).collect()
-    };
-    assert_eq!(around(&plain).len(), 1, "the tip lies inside a patch");
+    let on_seam = |seg: &Segmentation| seg.seams.iter().any(|s| s.vertices.contains(&tip));
+    assert!(!on_seam(&plain), "the tip lies inside a patch");
     let cut = segment(&mesh, &field, &sing, &LayoutOptions { cone_cuts: vec![tip], ..Default::default() }).unwrap();
-    check_valid("cut", &cut);
-    assert_eq!(cut.stats.cone_cuts, 1);
-    assert_eq!(cut.stats.patches, plain.stats.patches + 1);
-    assert_eq!(around(&cut).len(), 2, "a seam runs through the tip");
+    check_valid("dart", &cut);
+    assert_eq!((cut.stats.cone_cuts, cut.stats.darts), (1, true));
+    assert_eq!(cut.stats.patches, plain.stats.patches);
+    let dart: Vec<_> = cut.seams.iter().filter(|s| s.vertices.contains(&tip)).collect();
+    assert_eq!(dart.len(), 1, "one seam reaches the tip");
+    assert_eq!(dart[0].patches[0], dart[0].patches[1], "a self-seam");
+    assert!(dart[0].vertices.first() == Some(&tip) || dart[0].vertices.last() == Some(&tip), "ending at the tip");
+}
+
+/// The cut through a tip, where a dart cannot be made: on a flat 8 × 8 grid with the field
+/// along x, through the centre vertex along the field both ways to the boundary, two disks of
+/// half the area each; a vertex on the boundary gets none.
+#[test]
+fn split_through_cuts_along_the_field_through_the_tip() {
+    use clothcast_layout::patches::CornerRule;
+    use clothcast_layout::split::split_through;
+    let mesh = shapes::grid(8, 8, 1.0, 1.0);
+    let vf = VertexField::from_face_field(&mesh, &constant_field(&mesh, Vec3::x()));
+    let index = clothcast_mesh::VertexData::filled(mesh.n_vertices(), 0i32);
+    let rule = CornerRule::new(&mesh, &index);
+    let faces: Vec<_> = mesh.face_ids().collect();
+    let centre = mesh.vertices().min_by(|&a, &b| {
+        let d = |v: VertexId| (mesh.position(v) - Vec3::new(0.5, 0.5, 0.0)).norm();
+        d(a).total_cmp(&d(b))
+    });
+    let centre = centre.unwrap();
+    let opts = TraceOptions::default();
+    let s = split_through(&mesh, &faces, &|_| 0, &|_| false, centre, &vf, &opts, &rule, 0.05).expect("a cut");
+    assert!(s.info_a.is_disk() && s.info_b.is_disk());
+    let area = |fs: &[clothcast_mesh::FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
+    assert!((area(&s.a) - 0.5).abs() < 1e-9 && (area(&s.b) - 0.5).abs() < 1e-9, "{} {}", area(&s.a), area(&s.b));
+    let corner = VertexId::new(0);
+    assert!(split_through(&mesh, &faces, &|_| 0, &|_| false, corner, &vf, &opts, &rule, 0.05).is_none());
 }

@@ -140,7 +140,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         // Time of the flattening and patterns (the layout's is counted apart).
         let mut attempt = Instant::now();
         let (seg, result) = match resume.take() {
-            // The layout before the seams through the tips, taken back.
+            // The layout before the seams to the tips, taken back.
             Some((seg, p)) => (seg, Ok(p)),
             None => {
                 let seg = stages::segmentation::run(&cfg, &input, f, &hints, &cones, progress)?;
@@ -160,9 +160,9 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
             _ => None,
         };
         if before_cones.is_some() && result.is_err() {
-            // The layout with the seams through the tips failed (a piece too wide, or another
+            // The layout with the seams to the tips failed (a piece too wide, or another
             // error): the one before it stands.
-            progress.say("the layout with seams through the tips failed: keeping the layout before it");
+            progress.say("the layout with seams to the tips failed: keeping the layout before it");
             cones.clear();
             resume = before_cones.take();
             redone_seconds += attempt.elapsed().as_secs_f64();
@@ -244,7 +244,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                         cones_tried = true;
                         progress.say(format!(
                             "{} piece(s) cut far smaller than the target around a cone-like tip (area ratio under {}): \
-                             laying the patches out again with a seam through each tip",
+                             laying the patches out again with a dart to each tip",
                             cones.len(),
                             stages::patterns::SHRUNK_PIECE
                         ));
@@ -256,7 +256,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 let (seg, p) = match before_cones.take() {
                     Some((s0, p0)) if p0.flat.report.area_ratio_min >= p.flat.report.area_ratio_min => {
                         progress.say(format!(
-                            "the seams through the tips did not help (smallest area ratio {:.3} against {:.3}): \
+                            "the seams to the tips did not help (smallest area ratio {:.3} against {:.3}): \
                              keeping the layout before them",
                             p.flat.report.area_ratio_min, p0.flat.report.area_ratio_min
                         ));
