@@ -351,6 +351,28 @@ pub fn field_aligned_split(
     Some(Split { ncut: split.ncut, ..cut })
 }
 
+/// A field-aligned path inside patch `own` ([`field_path`]) from `start` along arm `k` to the
+/// patch's boundary (its seams, the mesh's boundary or another patch), through vertices of the
+/// patch for which `allowed` also holds.
+#[allow(clippy::too_many_arguments)]
+fn path_to_boundary(
+    mesh: &Mesh,
+    label: &impl Fn(FaceId) -> u32,
+    seam: &impl Fn(EdgeId) -> bool,
+    own: u32,
+    start: VertexId,
+    k: usize,
+    vf: &VertexField,
+    trace: &TraceOptions,
+    allowed: &dyn Fn(VertexId) -> bool,
+) -> Option<Vec<VertexId>> {
+    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
+    let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
+    let seam_at =
+        |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
+    field_path(mesh, vf, start, k, None, trace, &|v| touches(v) && allowed(v), &on_boundary, &seam_at)
+}
+
 /// On the boundary of patch `own`: on the mesh's boundary, a seam, or a face of another patch.
 fn on_patch_boundary(
     mesh: &Mesh,
@@ -379,23 +401,9 @@ fn cut_through(
     min_side: f64,
 ) -> Option<Split> {
     let own = label(faces[0]);
-    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
-    let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
-    let seam_at =
-        |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
-    let half1 = field_path(mesh, vf, m, k, None, trace, &|v| touches(v), &on_boundary, &seam_at)?;
+    let half1 = path_to_boundary(mesh, label, seam, own, m, k, vf, trace, &|_| true)?;
     let used: BTreeSet<VertexId> = half1.iter().copied().collect();
-    let half2 = field_path(
-        mesh,
-        vf,
-        m,
-        (k + 2) % 4,
-        None,
-        trace,
-        &|v| touches(v) && !used.contains(&v),
-        &on_boundary,
-        &seam_at,
-    )?;
+    let half2 = path_to_boundary(mesh, label, seam, own, m, (k + 2) % 4, vf, trace, &|v| !used.contains(&v))?;
     let mut cut: Vec<VertexId> = half1.into_iter().rev().collect();
     cut.extend_from_slice(&half2[1..]);
     // The two sides: patch faces connected across edges that are neither cuts nor the new seam.
@@ -427,16 +435,12 @@ pub fn dart_path(
     trace: &TraceOptions,
 ) -> Option<Vec<VertexId>> {
     let own = label(*faces.first()?);
-    let on_boundary = |v: VertexId| on_patch_boundary(mesh, label, seam, own, v);
-    if on_boundary(tip) {
+    if on_patch_boundary(mesh, label, seam, own, tip) {
         return None;
     }
-    let touches = |v: VertexId| mesh.vertex_faces(v).any(|f| label(f) == own);
-    let seam_at =
-        |u: VertexId, w: VertexId| edge_between(mesh, u, w).is_some_and(|e| seam(e) || mesh.is_boundary_edge(e));
     let length = |p: &[VertexId]| p.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum::<f64>();
     (0..4)
-        .filter_map(|k| field_path(mesh, vf, tip, k, None, trace, &|v| touches(v), &on_boundary, &seam_at))
+        .filter_map(|k| path_to_boundary(mesh, label, seam, own, tip, k, vf, trace, &|_| true))
         .min_by(|a, b| length(a).total_cmp(&length(b)))
 }
 
