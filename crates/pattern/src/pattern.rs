@@ -236,6 +236,9 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         pn.sort_by_key(|(si, n)| (*si, n.index));
         let sew_area = signed_area(&p.outline);
         let anchor = interior_anchor(&p.outline);
+        // The text shrunk on a piece too small for it (the labels' stack is about 2.4 text
+        // heights tall and wide: it then stays inside the sewing line), down to a legible floor.
+        let th = th.min((dist_point_boundary(anchor, &p.outline) / TEXT_FIT).max(MIN_TEXT_MM.min(th)));
         let grain = grain_arrow(&p.outline, anchor, th);
         let labels = vec![
             Text { text: p.name.clone(), position: axpy(anchor, -0.9, [0.0, th]), height: th, angle_deg: 0.0 },
@@ -286,6 +289,13 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
     let utilisation = if length > 0.0 { cut_total / (opts.fabric_width_mm * length) } else { 0.0 };
     Ok(Pattern { pieces: out, fabric_width_mm: opts.fabric_width_mm, fabric_length_mm: length, utilisation, stats })
 }
+
+/// A piece's text is at most its depth (the distance from the labels' anchor to the sewing
+/// line) over this: spot at 0.3 m has a 45 mm piece whose 12 mm labels overran it.
+const TEXT_FIT: f64 = 4.0;
+
+/// Smallest text height a small piece's labels shrink to (mm).
+const MIN_TEXT_MM: f64 = 3.0;
 
 /// The notch slit: from where the outward normal ray meets the cut line, inwards.
 fn notch_tick(position: P2, normal: P2, cut: &[P2], r: f64, len: f64) -> [P2; 2] {

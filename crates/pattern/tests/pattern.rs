@@ -403,3 +403,20 @@ mod never_panics {
         }
     }
 }
+
+/// A piece too small for the text keeps its labels inside: a 30 mm square's name and area
+/// shrink below `text_height_mm` (to its depth, 15 mm, over 4), a 100 mm one's do not, and no
+/// piece's text goes below 3 mm.
+#[test]
+fn labels_shrink_on_small_pieces() {
+    let small = common::rect_piece(1, 30.0, 30.0);
+    let tiny = common::rect_piece(2, 6.0, 6.0);
+    let pat = build_pattern(&[small, sq(3), tiny], &PatternOptions::default()).unwrap();
+    let name_height = |i: usize| pat.pieces[i].labels[0].height;
+    assert!((name_height(0) - 15.0 / 4.0).abs() < 0.1, "{}", name_height(0));
+    assert_eq!(name_height(1), PatternOptions::default().text_height_mm);
+    assert_eq!(name_height(2), 3.0);
+    // The name stays inside the small piece's sewing line.
+    let p = &pat.pieces[0];
+    assert!(point_in_polygon(p.labels[0].position, &p.sew), "{:?}", p.labels[0].position);
+}
