@@ -266,13 +266,7 @@ fn a_whole_run_is_reproducible() {
             x => x.clone(),
         }
     }
-    let (a, b) = (tmpdir("run-seed-a"), tmpdir("run-seed-b"));
-    for d in [&a, &b] {
-        expect_exit(&run_stage("run", d, None, &["--seed", "5"]), 0);
-    }
-    for f in files {
-        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
-    }
+    let (a, b) = assert_reproducible("run", "5", &files);
     let (sa, sb) = (untimed(&summary(&a)), untimed(&summary(&b)));
     assert!(sa["validation"]["converged"] == true, "{sa}");
     assert_eq!(sa, sb);

@@ -599,15 +599,20 @@ fn late_splits(
     chords: usize,
     opts: &LayoutOptions,
 ) -> Option<(Stage, usize, usize)> {
-    let mesh = &stage.mesh;
-    let field_directions = final_field(stage, dirs);
-    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
-    let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
-    let vf = VertexField::from_face_field(mesh, &cross);
+    let vf = stage_vertex_field(stage, dirs);
     late_repair(stage, dirs, chords, opts, "late splits", false, |state, budget| {
         let n = state.split_concave(&vf, trace, budget);
         if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
     })
+}
+
+/// The field of a (remeshed) stage as a vertex field, for traces on its own mesh.
+fn stage_vertex_field(stage: &Stage, dirs: &FaceData<Vec3>) -> VertexField {
+    let mesh = &stage.mesh;
+    let field_directions = final_field(stage, dirs);
+    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
+    let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
+    VertexField::from_face_field(mesh, &cross)
 }
 
 /// Seams through the cone-like tips of [`LayoutOptions::cone_cuts`] that lie inside a patch of
@@ -625,10 +630,7 @@ fn cut_cones(
     opts: &LayoutOptions,
 ) -> Option<(Stage, usize, bool)> {
     let mesh = &stage.mesh;
-    let field_directions = final_field(stage, dirs);
-    let theta: FaceData<f64> = mesh.face_ids().map(|f| mesh.face_frame(f).angle_of(&field_directions[f])).collect();
-    let cross = CrossField::from_angles(mesh, &clothcast_field::cross::connection(mesh), theta);
-    let vf = VertexField::from_face_field(mesh, &cross);
+    let vf = stage_vertex_field(stage, dirs);
     // The input mesh's vertices keep their ids in every remeshed stage.
     let tips: Vec<VertexId> = opts.cone_cuts.iter().copied().filter(|v| v.idx() < mesh.n_vertices()).collect();
     let mut pins = network::seam_degree(mesh, &stage.seam).map(|&d| d > 0);
@@ -636,9 +638,7 @@ fn cut_cones(
         pins[v] = true;
     }
     [true, false].into_iter().find_map(|darts| {
-        let (seam, n) = on_stage(stage, dirs, chords, |state, _| {
-            if darts { state.dart_cones(&tips, &vf, trace) } else { state.split_cones(&tips, &vf, trace) }
-        });
+        let (seam, n) = on_stage(stage, dirs, chords, |state, _| state.cone_seams(&tips, darts, &vf, trace));
         if n == 0 {
             return None;
         }
@@ -1341,49 +1341,41 @@ impl<'a> State<'a> {
         })
     }
 
-    /// Slit the patches that hold one of `tips` inside from their boundary to it (a dart,
-    /// [`dart_path`]), in the order listed; returns the darts made.
-    fn dart_cones(&mut self, tips: &[VertexId], vf: &VertexField, trace: &TraceOptions) -> usize {
-        let mut darts = 0;
-        for &tip in tips {
-            let Some(h) = self.mesh.outgoing(tip).next() else { continue };
-            let p = self.label[self.mesh.face(h)];
-            let label = |f: FaceId| self.label[f];
-            let seam = |e: EdgeId| self.seam[e];
-            let Some(path) = dart_path(self.mesh, &self.faces[p as usize], &label, &seam, tip, vf, trace) else {
-                tracing::debug!(tip = tip.idx(), patch = p, "no dart to the tip");
-                continue;
-            };
-            for w in path.windows(2) {
-                if let Some(e) = edge_between(self.mesh, w[0], w[1]) {
-                    self.seam[e] = true;
-                }
-            }
-            darts += 1;
-        }
-        darts
-    }
-
-    /// Cut the patches that hold one of `tips` inside through it ([`split_through`]), in the
-    /// order listed; returns the cuts made. A side may come out tiny (a tip near its patch's
-    /// boundary): a small piece to sew is better than fabric cut far too small.
-    fn split_cones(&mut self, tips: &[VertexId], vf: &VertexField, trace: &TraceOptions) -> usize {
-        let mut cuts = 0;
+    /// Seams to the `tips` that lie inside a patch, in the order listed: with `darts`, a seam
+    /// from the patch's boundary ending at the tip ([`dart_path`]), the patch kept whole;
+    /// otherwise a cut through the tip into two patches ([`split_through`]; a side may come out
+    /// tiny, a tip near its patch's boundary: a small piece to sew is better than fabric cut far
+    /// too small). Returns the seams made.
+    fn cone_seams(&mut self, tips: &[VertexId], darts: bool, vf: &VertexField, trace: &TraceOptions) -> usize {
+        let mut made = 0;
         for &tip in tips {
             let Some(h) = self.mesh.outgoing(tip).next() else { continue };
             let p = self.label[self.mesh.face(h)];
             let label = |f: FaceId| self.label[f];
             let seam = |e: EdgeId| self.seam[e];
             let faces = &self.faces[p as usize];
-            let Some(split) = split_through(self.mesh, faces, &label, &seam, tip, vf, trace, &self.rule, CONE_MIN_SIDE)
-            else {
-                tracing::debug!(tip = tip.idx(), patch = p, "no cut through the tip");
-                continue;
-            };
-            self.apply_split(p, split.a, split.b);
-            cuts += 1;
+            if darts {
+                let Some(path) = dart_path(self.mesh, faces, &label, &seam, tip, vf, trace) else {
+                    tracing::debug!(tip = tip.idx(), patch = p, "no dart to the tip");
+                    continue;
+                };
+                for w in path.windows(2) {
+                    if let Some(e) = edge_between(self.mesh, w[0], w[1]) {
+                        self.seam[e] = true;
+                    }
+                }
+            } else {
+                let Some(split) =
+                    split_through(self.mesh, faces, &label, &seam, tip, vf, trace, &self.rule, CONE_MIN_SIDE)
+                else {
+                    tracing::debug!(tip = tip.idx(), patch = p, "no cut through the tip");
+                    continue;
+                };
+                self.apply_split(p, split.a, split.b);
+            }
+            made += 1;
         }
-        cuts
+        made
     }
 
     /// Split non-quad patches from their corners (convex ones too, where

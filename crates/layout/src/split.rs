@@ -465,10 +465,7 @@ pub fn split_through(
     if on_patch_boundary(mesh, label, seam, own, tip) {
         return None;
     }
-    let smaller = |s: &Split| {
-        let area = |fs: &[FaceId]| fs.iter().map(|&f| mesh.face_area(f)).sum::<f64>();
-        area(&s.a).min(area(&s.b))
-    };
+    let smaller = |s: &Split| s.info_a.area.min(s.info_b.area);
     (0..2)
         .filter_map(|k| cut_through(mesh, faces, label, seam, tip, k, vf, trace, rule, min_side))
         .max_by(|x, y| smaller(x).total_cmp(&smaller(y)))

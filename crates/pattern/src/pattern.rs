@@ -291,7 +291,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
 }
 
 /// A piece's text is at most its depth (the distance from the labels' anchor to the sewing
-/// line) over this: spot at 0.3 m has a 45 mm piece whose 12 mm labels overran it.
+/// line) over this: spot at 0.3 m has a piece about 50 mm across whose 12 mm labels overran it.
 const TEXT_FIT: f64 = 4.0;
 
 /// Smallest text height a small piece's labels shrink to (mm).

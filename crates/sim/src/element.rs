@@ -56,9 +56,14 @@ impl Element {
         let l = e01.norm();
         let (a, b) = (e02.dot(&b1), e02.dot(&b2));
         let dm_inv = Matrix2::new(1.0 / l, -a / (l * b), 0.0, 1.0 / b);
+        Self::from_inverse(&dm_inv, 0.5 * l * b)
+    }
+
+    /// Rest data from `Dm⁻¹` (its rows are `∇N1`, `∇N2`) and the rest area.
+    fn from_inverse(dm_inv: &Matrix2<f64>, area: f64) -> Self {
         let g1 = Vector2::new(dm_inv[(0, 0)], dm_inv[(0, 1)]);
         let g2 = Vector2::new(dm_inv[(1, 0)], dm_inv[(1, 1)]);
-        Self { grad_n: [-(g1 + g2), g1, g2], area: 0.5 * l * b }
+        Self { grad_n: [-(g1 + g2), g1, g2], area }
     }
 
     /// Rest data from a triangle given in the plane, e.g. on a cut pattern: the material frame
@@ -71,10 +76,7 @@ impl Element {
         if !(det > 1e-12 * scale) {
             return None;
         }
-        let inv = dm.try_inverse()?;
-        let g1 = Vector2::new(inv[(0, 0)], inv[(0, 1)]);
-        let g2 = Vector2::new(inv[(1, 0)], inv[(1, 1)]);
-        Some(Self { grad_n: [-(g1 + g2), g1, g2], area: 0.5 * det })
+        Some(Self::from_inverse(&dm.try_inverse()?, 0.5 * det))
     }
 
     /// Rest data of every face of a mesh (the target is the rest shape).

@@ -223,9 +223,9 @@ impl Material for WrinklingStVenantKirchhoff {
 /// stiffness `k` rises linearly in the stretch `s = √(1 + 2E)` from its small-strain value at
 /// s = 1 to its stretched value at s ≥ 7/6 (WOR11's strain coordinate `t = clamp(6(s − 1), 0,
 /// 1)` between its rest row and its row along that yarn; read by the yarn's own stretch, where
-/// ARCSim reads the whole table by the largest principal stretch and its direction). `k_warp`, `k_weft` are the tensile
-/// stiffnesses (N/m) of a 1 m strip along each yarn and `G` the in-plane shear modulus
-/// (WOR11's k0, k2 and k3/4). A yarn in compression buckles out of the weave and keeps only a
+/// ARCSim reads the whole table by the largest principal stretch and its direction). `k_warp`,
+/// `k_weft` are the tensile stiffnesses (N/m) of a 1 m strip along each yarn and `G` the
+/// in-plane shear modulus (WOR11's k0, k2 and k3/4). A yarn in compression buckles out of the weave and keeps only a
 /// small fraction `c` of its small-strain stiffness (as the tension-field model lets an
 /// isotropic membrane wrinkle; with `c = 0` a region slack in both yarns could crumple freely,
 /// which a static solve cannot settle: a fan of thin triangles with one warp direction, a

@@ -380,23 +380,15 @@ pub fn simulate_sewn(
     assert!(start.as_ref().is_none_or(|s| s.len() == mesh.n_vertices()), "one start position per vertex");
     let mut bars = vec![[Bar::default(); 3]; if seams.iter().any(|s| s.1 > 0.0) { mesh.n_faces() } else { 0 }];
     for &(e, stiffness) in seams.iter().filter(|s| s.1 > 0.0) {
-        let ends = mesh.edge_vertices(e);
-        let (f0, f1) = mesh.edge_faces(e);
-        // The edge's corners in a face, and its length on that face's piece.
-        let local = |f: FaceId| {
-            let vs = mesh.face_vertices(f);
-            let k = (0..3).find(|&k| {
-                let (a, b) = (vs[k], vs[(k + 1) % 3]);
-                (a == ends[0] && b == ends[1]) || (a == ends[1] && b == ends[0])
-            });
-            k.map(|k| (k, (rest[f][(k + 1) % 3] - rest[f][k]).norm()))
+        // The edge's length on a face's piece, from the halfedge's corner (k to k + 1).
+        let length = |h| {
+            let (f, k) = (mesh.face(h), mesh.corner(h));
+            (rest[f][(k + 1) % 3] - rest[f][k]).norm()
         };
-        let Some((k, l0)) = local(f0) else { continue };
-        let l = match f1.and_then(local) {
-            Some((_, l1)) => 0.5 * (l0 + l1),
-            None => l0,
-        };
-        bars[f0.idx()][k] = Bar { stiffness, rest: l, compression: SEAM_COMPRESSION };
+        let h = mesh.edge_halfedge(e);
+        let l0 = length(h);
+        let l = mesh.twin(h).map_or(l0, |t| 0.5 * (l0 + length(t)));
+        bars[mesh.face(h).idx()][mesh.corner(h)] = Bar { stiffness, rest: l, compression: SEAM_COMPRESSION };
     }
     simulate_with_rest(mesh, Some(Sewn { elements, start, bars }), material, sc, progress)
 }

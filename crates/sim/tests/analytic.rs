@@ -10,13 +10,10 @@ use clothcast_sim::system::{Loads, System};
 use clothcast_sim::*;
 
 mod common;
+use common::centroid;
 
 const Y: f64 = 50_000.0;
 const NU: f64 = 0.3;
-
-fn centroid(p: &[Vec3]) -> Vec3 {
-    p.iter().sum::<Vec3>() / p.len() as f64
-}
 
 /// A free closed sphere under internal pressure: p = Y(λ² − 1)/((1 − ν) λ R), R = 3V0/A0.
 #[test]
@@ -59,33 +56,13 @@ fn long_closed_cylinder_matches_closed_form() {
     let r_poly = rad * (std::f64::consts::PI / 48.0).sin() / (std::f64::consts::PI / 48.0);
     let p = 2000.0;
     // Solve the closed form by Newton on (λθ, λz).
-    let (mut lt, mut lz) = (1.1f64, 1.01f64);
-    for _ in 0..50 {
-        let (et, ez) = (0.5 * (lt * lt - 1.0), 0.5 * (lz * lz - 1.0));
-        let (st, sz) = (kuu * et + kuv * ez, kuv * et + kuu * ez);
-        let f = [st - p * r_poly * lz, sz - p * r_poly * lt * lt / (2.0 * lz)];
-        let j = [
-            [kuu * lt, kuv * lz - p * r_poly],
-            [kuv * lt - p * r_poly * lt / lz, kuu * lz + p * r_poly * lt * lt / (2.0 * lz * lz)],
-        ];
-        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-        lt -= (f[0] * j[1][1] - f[1] * j[0][1]) / det;
-        lz -= (j[0][0] * f[1] - j[1][0] * f[0]) / det;
-    }
+    let (lt, lz) = common::pressurised_cylinder_stretches((kuu, kuv, kuu), p, r_poly, (1.1, 1.01), 50);
     let sc = Scenario { infill_density: 0.0, head_pressure: p, suspension: Suspension::None, ..Default::default() };
     let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
     assert!(r.stats.converged);
-    // Rings near 40% and 60% of the length (away from the caps).
-    let ring = |j: usize| -> Vec<Vec3> { (0..48).map(|i| r.positions[VertexId::new(j * 48 + i)]).collect() };
-    let (a, b) = (ring(24), ring(36));
-    let (ca, cb) = (centroid(&a), centroid(&b));
-    let axis = (cb - ca).normalize();
-    let measured_lz = (cb - ca).norm() / (len * 12.0 / 60.0);
-    let radius = |pts: &[Vec3], c: Vec3| {
-        pts.iter().map(|x| ((x - c) - axis * axis.dot(&(x - c))).norm()).sum::<f64>() / pts.len() as f64
-    };
-    // Perimeter-based radius of the deformed polygon, as for the rest one.
-    let measured_lt = 0.5 * (radius(&a, ca) + radius(&b, cb)) / rad;
+    // Rings near 40% and 60% of the length (away from the caps); the perimeter-based radius of
+    // the deformed polygon, as for the rest one.
+    let (measured_lt, measured_lz) = common::measured_cylinder_stretches(r.positions.as_slice(), 48, rad, len);
     assert!((measured_lt - lt).abs() / lt < 0.005, "hoop stretch {measured_lt} vs {lt}");
     assert!((measured_lz - lz).abs() / lz < 0.005, "axial stretch {measured_lz} vs {lz}");
 }

@@ -2,6 +2,7 @@
 //! simulated with the woven fabric (`simulate_sewn`, `WovenFabric`).
 
 mod common;
+use common::centroid;
 
 use clothcast_mesh::{FaceData, Mesh, Vec3, VertexId, shapes};
 use clothcast_sim::material::{StVenantKirchhoff, WovenFabric};
@@ -22,10 +23,6 @@ fn patterns(mesh: &Mesh, warp: impl Fn(Vec3, Vec3) -> Vec3) -> FaceData<[Vector2
             p.map(|x| Vector2::new((x - p[0]).dot(&u), (x - p[0]).dot(&v)))
         })
         .collect()
-}
-
-fn centroid(p: &[Vec3]) -> Vec3 {
-    p.iter().sum::<Vec3>() / p.len() as f64
 }
 
 /// A woven fabric whose yarns and shear equal an isotropic StVK's with ν = 0 (k = Y, G = Y/2)
@@ -65,20 +62,8 @@ fn woven_cylinder_matches_closed_form_for_either_warp_direction() {
     let mut hoop = Vec::new();
     for warp_around in [true, false] {
         let (kt, kz) = if warp_around { (fabric.warp, fabric.weft) } else { (fabric.weft, fabric.warp) };
-        let kc = 0.0;
-        let (mut lt, mut lz) = (1.05f64, 1.01f64);
-        for _ in 0..60 {
-            let (et, ez) = (0.5 * (lt * lt - 1.0), 0.5 * (lz * lz - 1.0));
-            let (st, sz) = (kt * et + kc * ez, kc * et + kz * ez);
-            let f = [st - p * r_poly * lz, sz - p * r_poly * lt * lt / (2.0 * lz)];
-            let j = [
-                [kt * lt, kc * lz - p * r_poly],
-                [kc * lt - p * r_poly * lt / lz, kz * lz + p * r_poly * lt * lt / (2.0 * lz * lz)],
-            ];
-            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            lt -= (f[0] * j[1][1] - f[1] * j[0][1]) / det;
-            lz -= (j[0][0] * f[1] - j[1][0] * f[0]) / det;
-        }
+        // No warp–weft coupling.
+        let (lt, lz) = common::pressurised_cylinder_stretches((kt, 0.0, kz), p, r_poly, (1.05, 1.01), 60);
         let rest = patterns(&mesh, |c, nrm| {
             let around = Vec3::z().cross(&Vec3::new(c.x, c.y, 0.0));
             // Cap faces (normal along the axis): one warp direction for the whole flat cap, as on
@@ -93,15 +78,7 @@ fn woven_cylinder_matches_closed_form_for_either_warp_direction() {
         });
         let r = simulate_sewn(&mesh, &rest, &[], None, &fabric, &sc, &mut |_| {}).unwrap();
         assert!(r.stats.converged, "{:?}", r.stats.termination);
-        let ring = |j: usize| -> Vec<Vec3> { (0..n).map(|i| r.positions[VertexId::new(j * n + i)]).collect() };
-        let (a, b) = (ring(24), ring(36));
-        let (ca, cb) = (centroid(&a), centroid(&b));
-        let axis = (cb - ca).normalize();
-        let measured_lz = (cb - ca).norm() / (len * 12.0 / 60.0);
-        let radius = |pts: &[Vec3], c: Vec3| {
-            pts.iter().map(|x| ((x - c) - axis * axis.dot(&(x - c))).norm()).sum::<f64>() / pts.len() as f64
-        };
-        let measured_lt = 0.5 * (radius(&a, ca) + radius(&b, cb)) / rad;
+        let (measured_lt, measured_lz) = common::measured_cylinder_stretches(r.positions.as_slice(), n, rad, len);
         assert!((measured_lt - lt).abs() / lt < 0.005, "warp around {warp_around}: hoop {measured_lt} vs {lt}");
         assert!((measured_lz - lz).abs() / lz < 0.005, "warp around {warp_around}: axial {measured_lz} vs {lz}");
         hoop.push(measured_lt);

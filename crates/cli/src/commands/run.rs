@@ -239,7 +239,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 // Pieces shrunk around a cone-like tip inside them: the tips are cut through in
                 // a layout made again (once), which is kept if it shrinks the fabric less.
                 if !cones_tried && cfg.layout.cone_cuts {
-                    cones = stages::patterns::shrunk_tips(&seg, &p, input.mesh.n_vertices());
+                    cones = stages::patterns::shrunk_tips(&seg, &p);
                     if !cones.is_empty() {
                         cones_tried = true;
                         progress.say(format!(

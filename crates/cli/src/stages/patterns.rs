@@ -365,10 +365,9 @@ const TIP_DEFECT: f64 = std::f64::consts::PI / 9.0;
 /// and their neighbours inside the piece, the input vertex with the largest angle defect (at
 /// least 20°); a flattening shrinks the fabric most at such a tip. Vertices of the input mesh,
 /// largest defect first.
-pub fn shrunk_tips(seg: &Segmentation, p: &PatternsResult, n_input_vertices: usize) -> Vec<VertexId> {
+pub fn shrunk_tips(seg: &Segmentation, p: &PatternsResult) -> Vec<VertexId> {
     let mesh = &seg.mesh;
-    let angles = mesh.corner_angles();
-    let defect = |v: VertexId| 2.0 * std::f64::consts::PI - mesh.outgoing(v).map(|h| angles[h]).sum::<f64>();
+    let defects = mesh.angle_defects();
     let mut tips: Vec<(f64, VertexId)> = Vec::new();
     for fp in p.flat.patches.iter().filter(|fp| fp.stats.area_ratio_min < SHRUNK_PIECE) {
         let ratio = |f| {
@@ -388,8 +387,8 @@ pub fn shrunk_tips(seg: &Segmentation, p: &PatternsResult, n_input_vertices: usi
         }
         let best = near
             .into_iter()
-            .filter(|&v| v.idx() < n_input_vertices && inside(v))
-            .map(|v| (defect(v), v))
+            .filter(|&v| seg.vertex_input[v].is_some() && inside(v))
+            .map(|v| (defects[v], v))
             .filter(|&(d, _)| d >= TIP_DEFECT)
             .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)));
         if let Some(t) = best {

@@ -14,10 +14,11 @@ use anyhow::{Context, anyhow};
 use clothcast_field::FieldResult;
 use clothcast_flatten::WarpAlong;
 use clothcast_layout::Segmentation;
+use clothcast_layout::patches::edge_between;
 use clothcast_mesh::Vec2 as Vector2;
 use clothcast_mesh::io::{Attribute, PlyFormat, write_atomic, write_ply};
 use clothcast_mesh::simplify::{ClosestHit, ClosestPoint};
-use clothcast_mesh::{FaceData, Mesh, Vec3, VertexData, VertexId};
+use clothcast_mesh::{FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
 use clothcast_sim::element::{Element, sym2_angle};
 use clothcast_sim::{SimResult, Suspension, WovenFabric, simulate_sewn};
 use serde::Serialize;
@@ -361,10 +362,10 @@ pub fn run(
     let mut seams = Vec::new();
     for chain in &seg.seams {
         for w in chain.vertices.windows(2) {
-            let h = seg.mesh.outgoing(w[0]).find(|&h| seg.mesh.head(h) == w[1]).ok_or_else(|| {
+            let e = edge_between(&seg.mesh, w[0], w[1]).ok_or_else(|| {
                 Failure::Internal(anyhow!("seam vertices {} and {} share no edge", w[0].idx(), w[1].idx()))
             })?;
-            seams.push((seg.mesh.edge(h), seam_stiffness));
+            seams.push((e, seam_stiffness));
         }
     }
     // Stage 1's mold measured like the cast: at the segmented mesh's vertices.
@@ -400,7 +401,6 @@ pub fn run(
     let (mut shear_deg, mut warp_stretch, mut weft_stretch) = (Vec::new(), Vec::new(), Vec::new());
     let mut turn = Vec::with_capacity(seg.mesh.n_faces());
     let (mut area, mut shear_area, mut visible) = (0.0, 0.0, 0.0);
-    let mut worst: Option<StretchSite> = None;
     for f in seg.mesh.face_ids() {
         let e = Element::from_plane(&rest[f]).expect("checked by the solve");
         let k = e.kinematics(&seg.mesh.face_vertices(f).map(|v| result.positions[v]));
@@ -414,15 +414,6 @@ pub fn run(
         shear_deg.push(g);
         warp_stretch.push(lu);
         weft_stretch.push(lv);
-        if worst.as_ref().is_none_or(|w| lu.max(lv) > w.stretch) {
-            worst = Some(StretchSite {
-                face: f.idx(),
-                input_face: input.face_to_input[seg.face_parent[f].idx()] as usize,
-                piece: seg.patch_of_face[f] as usize,
-                stretch: lu.max(lv),
-                pattern_area_ratio: e.area / seg.mesh.face_area(f),
-            });
-        }
         // The cast's largest principal stretch, in the pattern's frame, carried onto the
         // target (the map from the face's pattern triangle to its place on the target), against
         // stage 1's on the target face the segmented face lies in: an angle between lines.
@@ -442,6 +433,17 @@ pub fn run(
     let median = |mut v: Vec<f64>| -> Option<f64> {
         v.sort_by(f64::total_cmp);
         (!v.is_empty()).then(|| v[v.len() / 2])
+    };
+    // Where a yarn stretches most (the first such face).
+    let stretch_of = |i: usize| warp_stretch[i].max(weft_stretch[i]);
+    let w = (0..warp_stretch.len()).fold(0, |w, i| if stretch_of(i) > stretch_of(w) { i } else { w });
+    let wf = FaceId::new(w);
+    let stretch_max_at = StretchSite {
+        face: w,
+        input_face: input.face_to_input[seg.face_parent[wf].idx()] as usize,
+        piece: seg.patch_of_face[wf] as usize,
+        stretch: stretch_of(w),
+        pattern_area_ratio: Element::from_plane(&rest[wf]).expect("checked by the solve").area / seg.mesh.face_area(wf),
     };
     let diagonal = input.mesh.bbox().diagonal();
     let summary = ValidationSummary {
@@ -475,27 +477,30 @@ pub fn run(
         strain_direction_change_anisotropic_median_deg: median(turn.iter().filter(|t| t.1).map(|t| t.0).collect()),
         warp_stretch_max: warp_stretch.iter().copied().fold(0.0, f64::max),
         weft_stretch_max: weft_stretch.iter().copied().fold(0.0, f64::max),
-        stretch_max_at: worst.ok_or_else(|| Failure::Internal(anyhow!("the sewn mold has no faces")))?,
+        stretch_max_at,
         solver: s.solver.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     };
     // A fabric far too soft for the load: the mold balloons (with the level held at the top,
     // the deeper it hangs the higher the pressure: there may be no equilibrium at all).
-    let stretch = summary.warp_stretch_max.max(summary.weft_stretch_max);
     let site = &summary.stretch_max_at;
+    let stretch = site.stretch;
     if stretch > TOO_SOFT_STRETCH && site.pattern_area_ratio < SHRUNK_PATTERN {
         // Not the fabric: the pattern is too small there.
         tracing::warn!(
             "piece {p} (P{p}) is cut far smaller than the target around face {} of segmentation.ply (face {} of the \
              input): its pattern there has {:.0}% of the target's area, and the sewn fabric stretches up to {:.0}% to \
              cover it. The flattening shrank a strongly curved region inside the piece (flattening.per_piece \
-             area_ratio_min), usually a cone-like tip, which only a seam ending at it would flatten well, and the \
-             layout places no such seams (darts): round or blunt the target there; a lower [pattern] \
-             max_area_spread (now {}) has the layout split the piece, which may or may not bring the tip onto a seam",
+             area_ratio_min), usually a cone-like tip, which only a seam ending at it flattens well: [layout] \
+             cone_cuts (now {}) gives such a tip a dart where the flattening cut a triangle at under {} of its \
+             area; otherwise round or blunt the target there, or lower [pattern] max_area_spread (now {}) to have \
+             the layout split the piece",
             site.face,
             site.input_face,
             100.0 * site.pattern_area_ratio,
             100.0 * (stretch - 1.0),
+            cfg.layout.cone_cuts,
+            crate::stages::patterns::SHRUNK_PIECE,
             cfg.pattern.max_area_spread,
             p = site.piece
         );

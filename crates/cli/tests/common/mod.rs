@@ -88,8 +88,8 @@ pub fn assert_keys(v: &Value, what: &str, keys: &[&str]) {
 }
 
 /// Run `clothcast STAGE --seed SEED` twice, into two fresh directories, and assert that `files`
-/// come out byte for byte the same.
-pub fn assert_reproducible(stage: &str, seed: &str, files: &[&str]) {
+/// come out byte for byte the same; returns the two directories (for further comparisons).
+pub fn assert_reproducible(stage: &str, seed: &str, files: &[&str]) -> (PathBuf, PathBuf) {
     let (a, b) = (tmpdir(&format!("{stage}-seed-a")), tmpdir(&format!("{stage}-seed-b")));
     for d in [&a, &b] {
         expect_exit(&run_stage(stage, d, None, &["--seed", seed]), 0);
@@ -97,4 +97,5 @@ pub fn assert_reproducible(stage: &str, seed: &str, files: &[&str]) {
     for f in files {
         assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
     }
+    (a, b)
 }

@@ -46,3 +46,50 @@ pub fn assert_assembled_derivatives(sys: &mut System<'_>, x: &[Vec3], s: f64, st
         }
     }
 }
+
+/// The closed form of a long closed cylinder (polygonal radius `r`) under pressure `p`: the
+/// hoop and axial stretches (λθ, λz) where the membrane stresses S_θ = k_θθ E_θ + k_θz E_z and
+/// S_z = k_θz E_θ + k_zz E_z balance S_θ = p r λz and S_z = p r λθ²/(2 λz), by Newton from
+/// `start` (`iterations` steps).
+pub fn pressurised_cylinder_stretches(
+    (k_tt, k_tz, k_zz): (f64, f64, f64),
+    p: f64,
+    r: f64,
+    start: (f64, f64),
+    iterations: usize,
+) -> (f64, f64) {
+    let (mut lt, mut lz) = start;
+    for _ in 0..iterations {
+        let (et, ez) = (0.5 * (lt * lt - 1.0), 0.5 * (lz * lz - 1.0));
+        let (st, sz) = (k_tt * et + k_tz * ez, k_tz * et + k_zz * ez);
+        let f = [st - p * r * lz, sz - p * r * lt * lt / (2.0 * lz)];
+        let j = [
+            [k_tt * lt, k_tz * lz - p * r],
+            [k_tz * lt - p * r * lt / lz, k_zz * lz + p * r * lt * lt / (2.0 * lz * lz)],
+        ];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        lt -= (f[0] * j[1][1] - f[1] * j[0][1]) / det;
+        lz -= (j[0][0] * f[1] - j[1][0] * f[0]) / det;
+    }
+    (lt, lz)
+}
+
+/// Mean of points.
+pub fn centroid(p: &[Vec3]) -> Vec3 {
+    p.iter().sum::<Vec3>() / p.len() as f64
+}
+
+/// The stretches (λθ, λz) of a deformed `shapes::cylinder(rad, len, around, 60, ..)` measured
+/// between its rings 24 and 36 (at 40% and 60% of the length, away from the caps): the mean
+/// perimeter-based radius of the two rings about their axis over `rad`, and their distance over
+/// its rest value.
+pub fn measured_cylinder_stretches(positions: &[Vec3], around: usize, rad: f64, len: f64) -> (f64, f64) {
+    let ring = |j: usize| -> Vec<Vec3> { (0..around).map(|i| positions[j * around + i]).collect() };
+    let (a, b) = (ring(24), ring(36));
+    let (ca, cb) = (centroid(&a), centroid(&b));
+    let axis = (cb - ca).normalize();
+    let radius = |pts: &[Vec3], c: Vec3| {
+        pts.iter().map(|x| ((x - c) - axis * axis.dot(&(x - c))).norm()).sum::<f64>() / pts.len() as f64
+    };
+    (0.5 * (radius(&a, ca) + radius(&b, cb)) / rad, (cb - ca).norm() / (len * 12.0 / 60.0))
+}
