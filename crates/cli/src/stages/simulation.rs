@@ -89,10 +89,12 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     }
     if site.height_above_level_m.is_some_and(|h| h > 0.0) {
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
-        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161 (README).
+        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; with 2000
+        // iterations allowed, those filled to half their height or more in 145-1465 (README).
         out += "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
                 determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a \
-                higher fill_level helps";
+                higher fill_level helps, or more iterations (molds filled to half their height or more have \
+                converged within 2000: [solver] max_iterations = 2000)";
     }
     out
 }
