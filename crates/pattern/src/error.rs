@@ -219,3 +219,19 @@ pub enum PatternError {
     #[error("write error: {0}")]
     Io(#[from] std::io::Error),
 }
+
+impl PatternError {
+    /// Whether the options are to blame (an option out of range, or options that ask for more
+    /// notches, a larger page or more pages than the writers make, or a roll too narrow for a
+    /// piece), rather than the pieces given.
+    pub fn is_option_error(&self) -> bool {
+        matches!(
+            self,
+            Self::InvalidOption { .. }
+                | Self::TooManyNotches { .. }
+                | Self::PieceTooWide { .. }
+                | Self::PageTooLarge { .. }
+                | Self::TooManyPages { .. }
+        )
+    }
+}

@@ -76,6 +76,7 @@
 pub mod error;
 pub use clothcast_mesh::polygon as geom;
 pub mod input;
+mod labels;
 pub mod nest;
 pub mod offset;
 pub mod output;

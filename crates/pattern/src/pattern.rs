@@ -14,10 +14,11 @@ use serde::Serialize;
 
 use crate::error::PatternError;
 use crate::geom::{
-    BBox, P2, add, axpy, centroid, dist_point_boundary, normalize, point_in_polygon, ray_hit, rotate_quarter,
+    BBox, P2, add, axpy, centroid, dist, dist_point_boundary, normalize, point_in_polygon, ray_hit, rotate_quarter,
     segment_inside, signed_area,
 };
 use crate::input::{PatternOptions, PieceInput, PointMark};
+use crate::labels::{LabelBox, Placer, Region, heights, mark_candidates};
 use crate::nest::nest_polygons;
 use crate::offset::cut_line;
 use crate::seams::{SidePath, interior_notch_count_f64, notch_params, seam_length_mismatch};
@@ -113,6 +114,8 @@ pub struct Piece {
     pub labels: Vec<Text>,
     /// Marked points (from the input).
     pub marks: Vec<PointMark>,
+    /// The labels of the marks that have one, in the marks' order.
+    pub mark_labels: Vec<Text>,
     /// Place on the roll.
     pub placement: Placement,
 }
@@ -149,6 +152,10 @@ pub struct PatternStats {
     pub area_mm2_total: f64,
     /// Total area inside the cut lines (mm²): the fabric in the pieces.
     pub cut_area_mm2_total: f64,
+    /// Labels (of seams and marks) that found no place clear of their piece's other texts,
+    /// marks, notches and grain arrow, inside its sewing line or in its seam allowance, at any
+    /// height down to the smallest: on tiny pieces.
+    pub labels_crowded: usize,
 }
 
 /// A nested sewing pattern.
@@ -232,6 +239,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
     }
 
     let mut out = Vec::with_capacity(pieces.len());
+    let mut labels_crowded = 0;
     for ((p, cut), mut pn) in pieces.iter().zip(cuts).zip(notches) {
         pn.sort_by_key(|(si, n)| (*si, n.index));
         let sew_area = signed_area(&p.outline);
@@ -239,21 +247,73 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         // The text shrunk on a piece too small for it (the labels' stack is about 2.4 text
         // heights tall and wide: it then stays inside the sewing line), down to a legible floor.
         let th = th.min((dist_point_boundary(anchor, &p.outline) / TEXT_FIT).max(MIN_TEXT_MM.min(th)));
+        // The smaller texts (area, marks) no smaller than the floor either.
+        let small = |k: f64| (k * th).max(MIN_TEXT_MM.min(th));
         let grain = grain_arrow(&p.outline, anchor, th);
-        let labels = vec![
-            Text { text: p.name.clone(), position: axpy(anchor, -0.9, [0.0, th]), height: th, angle_deg: 0.0 },
-            Text {
-                text: format!("{:.3} m²", sew_area * 1e-6),
-                position: axpy(anchor, -2.3, [0.0, th]),
-                height: 0.8 * th,
-                angle_deg: 0.0,
-            },
-        ];
+        let name = Text { text: p.name.clone(), position: axpy(anchor, -0.9, [0.0, th]), height: th, angle_deg: 0.0 };
+        // The name, the grain arrow, the marks' symbols and the notches hold their places; the
+        // area, the marks' and the seams' labels are placed around them (`crate::labels`).
+        let mut placer = Placer::new(&p.outline, &cut);
+        placer.reserve(LabelBox::of_text(&name));
+        placer.reserve(LabelBox::of_segment(grain.start, grain.end, 0.5 * th));
+        let area = Text {
+            text: format!("{:.3} m²", sew_area * 1e-6),
+            position: name.position,
+            height: small(0.8),
+            angle_deg: 0.0,
+        };
+        let area = placer.place(text_candidates(&area, &name, &p.outline, r)).unwrap_or(area);
+        let labels = vec![name, area];
+        let s = mark_size(th);
+        for m in &p.marks {
+            placer.reserve(LabelBox::square(m.position, s));
+        }
+        for (_, n) in &pn {
+            placer.reserve(LabelBox::of_segment(n.tick[0], n.tick[1], NOTCH_CLEARANCE_MM));
+        }
+        let mark_labels = p
+            .marks
+            .iter()
+            .filter(|m| !m.label.is_empty())
+            .filter_map(|m| {
+                let here: Vec<Text> = heights(small(0.6), MIN_TEXT_MM.min(th))
+                    .into_iter()
+                    .flat_map(|h| mark_candidates(&m.label, m.position, s, h))
+                    .collect();
+                let candidates = [Region::Piece, Region::Allowance]
+                    .iter()
+                    .flat_map(|&region| here.iter().map(move |t| (t.clone(), region)))
+                    .collect();
+                placer.place(candidates)
+            })
+            .collect();
+        // A seam label inside the piece at a good height first, then in the seam allowance
+        // (tiny pieces), then inside at the smallest heights.
+        let sizes = heights(th, MIN_TEXT_MM.min(th));
+        let large = |h: &f64| *h >= 0.5 * th;
+        let band = heights(th.min(ALLOWANCE_TEXT_FIT * r), MIN_TEXT_MM.min(th));
         let seam_labels = p
             .seams
             .iter()
-            .filter_map(|s| SidePath::new(&p.outline, s).map(|path| seam_label(&path, &s.label, &p.outline, th)))
+            .filter_map(|s| SidePath::new(&p.outline, s).map(|path| (path, &s.label)))
+            .filter_map(|(path, label)| {
+                let inside = |h: f64| {
+                    SEAM_LABEL_AT.iter().flat_map(move |&t| SEAM_LABEL_DEPTHS.iter().map(move |&d| (t, -d * h, h)))
+                };
+                let outside = |h: f64| {
+                    SEAM_LABEL_AT.iter().flat_map(move |&t| ALLOWANCE_DEPTHS.iter().map(move |&d| (t, d * r, h)))
+                };
+                let tiers = sizes.iter().copied().filter(large).flat_map(|h| inside(h).map(|c| (c, Region::Piece)));
+                let tiers = tiers.chain(band.iter().flat_map(|&h| outside(h).map(|c| (c, Region::Allowance))));
+                let tiers = tiers.chain(
+                    sizes.iter().copied().filter(|h| !large(h)).flat_map(|h| inside(h).map(|c| (c, Region::Piece))),
+                );
+                let candidates =
+                    tiers.map(|((t, offset, h), region)| (seam_label(&path, label, t, offset, h), region)).collect();
+                placer.place(candidates)
+            })
             .collect();
+        labels_crowded += placer.crowded;
         out.push(Piece {
             id: p.id,
             name: p.name.clone(),
@@ -266,6 +326,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
             grain,
             labels,
             marks: p.marks.clone(),
+            mark_labels,
             placement: Placement { rotation_deg: 0, offset: [0.0, 0.0] },
         });
     }
@@ -285,6 +346,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         seam_length_mismatch_max_rel: seam_length_mismatch(pieces),
         area_mm2_total: out.iter().map(|p| p.sew_area_mm2).sum(),
         cut_area_mm2_total: cut_total,
+        labels_crowded,
     };
     let utilisation = if length > 0.0 { cut_total / (opts.fabric_width_mm * length) } else { 0.0 };
     Ok(Pattern { pieces: out, fabric_width_mm: opts.fabric_width_mm, fabric_length_mm: length, utilisation, stats })
@@ -295,7 +357,33 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
 const TEXT_FIT: f64 = 4.0;
 
 /// Smallest text height a small piece's labels shrink to (mm).
-const MIN_TEXT_MM: f64 = 3.0;
+pub(crate) const MIN_TEXT_MM: f64 = 3.0;
+
+/// A mark's symbol reaches this far from its point (its cross's arms), for text height `th`.
+pub(crate) fn mark_size(th: f64) -> f64 {
+    0.6 * th
+}
+
+/// Where along a seam side its label is tried (arc-length fractions, the middle first).
+const SEAM_LABEL_AT: [f64; 7] = [0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8];
+
+/// How deep inside the piece a seam label's centre is tried, in text heights (the first is the
+/// default).
+const SEAM_LABEL_DEPTHS: [f64; 4] = [SEAM_LABEL_DEPTH, 1.6, 2.2, 0.9];
+
+/// A seam label's centre lies this many text heights inside the side.
+const SEAM_LABEL_DEPTH: f64 = 1.2;
+
+/// How far out of the side a seam label in the seam allowance is tried, in allowances (the
+/// middle of the band between the sewing and cut lines first).
+const ALLOWANCE_DEPTHS: [f64; 3] = [0.5, 0.4, 0.6];
+
+/// A label in the seam allowance is at most this many allowances high (its box, with its
+/// margins, then takes 90% of the band).
+const ALLOWANCE_TEXT_FIT: f64 = 0.56;
+
+/// Labels keep this far from a notch's slit (mm).
+const NOTCH_CLEARANCE_MM: f64 = 0.5;
 
 /// The notch slit: from where the outward normal ray meets the cut line, inwards.
 fn notch_tick(position: P2, normal: P2, cut: &[P2], r: f64, len: f64) -> [P2; 2] {
@@ -385,14 +473,58 @@ fn grain_arrow(poly: &[P2], anchor: P2, th: f64) -> GrainArrow {
     GrainArrow { start, end, head }
 }
 
-/// The label of a seam side: inside the piece, 1.2 text heights in from the side's midpoint,
-/// its baseline along the side (turned to read upright).
-fn seam_label(path: &SidePath, label: &str, poly: &[P2], th: f64) -> Text {
-    let (mid, n) = path.at(0.5 * path.length());
-    let mut position = axpy(mid, -1.2 * th, n);
-    if !point_in_polygon(position, poly) {
-        position = axpy(mid, -0.6 * th, n);
+/// Candidate places of a text `t` that goes with `next_to` (the area with the name): below
+/// it (their boxes touching), right of it, left of it; then points inside the sewing line
+/// (a grid over its box), then points in the seam allowance (along the sewing line, half an
+/// allowance out), each nearest to `next_to` first.
+fn text_candidates(t: &Text, next_to: &Text, sew: &[P2], r: f64) -> Vec<(Text, Region)> {
+    let at = |position: P2| Text { position, ..t.clone() };
+    let c = next_to.position;
+    let (half, half_next) = (LabelBox::of_text(t).half(), LabelBox::of_text(next_to).half());
+    let beside = 1.01 * (half[0] + half_next[0]);
+    let below = 1.01 * (half[1] + half_next[1]);
+    let mut out: Vec<(Text, Region)> =
+        [[0.0, -below], [beside, 0.0], [-beside, 0.0]].iter().map(|&o| (at(add(c, o)), Region::Piece)).collect();
+    let by_distance = |mut v: Vec<P2>| {
+        v.sort_by(|a, b| dist(*a, c).total_cmp(&dist(*b, c)));
+        v
+    };
+    const G: usize = 16;
+    let b = BBox::of(sew);
+    let grid: Vec<P2> = (0..G * G)
+        .map(|k| {
+            [
+                b.min[0] + ((k % G) as f64 + 0.5) * b.width() / G as f64,
+                b.min[1] + ((k / G) as f64 + 0.5) * b.height() / G as f64,
+            ]
+        })
+        .filter(|&q| point_in_polygon(q, sew))
+        .collect();
+    out.extend(by_distance(grid).into_iter().map(|q| (at(q), Region::Piece)));
+    if r > 0.0 {
+        let n = sew.len();
+        let mut band = Vec::new();
+        for i in 0..n {
+            let (a, e) = (sew[i], sew[(i + 1) % n]);
+            let len = dist(a, e);
+            let out_normal = normalize([e[1] - a[1], a[0] - e[0]]);
+            let steps = (len / (4.0 * half[1])).ceil().max(1.0) as usize;
+            for k in 0..steps {
+                let q = axpy(a, (k as f64 + 0.5) / steps as f64, [e[0] - a[0], e[1] - a[1]]);
+                band.push(axpy(q, 0.5 * r, out_normal));
+            }
+        }
+        out.extend(by_distance(band).into_iter().map(|q| (at(q), Region::Allowance)));
     }
+    out
+}
+
+/// The label of a seam side at the fraction `t` of its length, its centre `offset` (mm) out
+/// of the side (negative: inside the piece), its baseline along the side (turned to read
+/// upright).
+fn seam_label(path: &SidePath, label: &str, t: f64, offset: f64, th: f64) -> Text {
+    let (mid, n) = path.at(t * path.length());
+    let position = axpy(mid, offset, n);
     // Edge direction: the outward normal turned a quarter counter-clockwise.
     let dir = normalize([-n[1], n[0]]);
     let mut angle = dir[1].atan2(dir[0]).to_degrees();

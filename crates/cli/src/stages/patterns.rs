@@ -35,6 +35,9 @@ pub struct PatternsSummary {
     pub utilisation: f64,
     /// Sum of the pieces' sew-line areas (mm²), to compare with the target's area.
     pub pieces_area_mm2: f64,
+    /// Labels (of seams and marks) that found no place clear of the piece's other texts and
+    /// marks, inside its sewing line or in its seam allowance (on tiny pieces).
+    pub labels_crowded: usize,
     /// The files written (relative to the output directory).
     pub files: Vec<String>,
     /// Times the patches were laid out again, smaller, because a piece did not fit the roll.
@@ -211,6 +214,8 @@ pub fn run(
                 message: format!("{e}{more}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"),
                 pieces: too_wide.iter().map(|&(piece, ratio)| (piece as u32, ratio)).collect(),
             }))
+        } else if e.is_option_error() {
+            Failure::Input(anyhow::anyhow!("building the patterns: {e} (see the [pattern] section)"))
         } else {
             Failure::Internal(anyhow::anyhow!("building the patterns: {e}"))
         }
@@ -233,6 +238,7 @@ pub fn run(
         fabric_length_mm: pattern.fabric_length_mm,
         utilisation: pattern.utilisation,
         pieces_area_mm2: pattern.stats.area_mm2_total,
+        labels_crowded: pattern.stats.labels_crowded,
         files: Vec::new(),
         layout_retries: 0,
         distortion_retries: 0,
@@ -277,15 +283,19 @@ fn marks_per_piece(
     let mut out = Vec::with_capacity(flat.patches.len());
     for p in &flat.patches {
         let mut marks: Vec<PointMark> = Vec::new();
+        let at = |v: VertexId| [p.uv[v].x * 1000.0, p.uv[v].y * 1000.0];
+        // The pour mark first (on one piece only, where the seams split that vertex).
+        if !pour_placed && let Some(v) = p.mesh.vertices().find(|&v| Some(p.seg_vertex[v]) == pour) {
+            marks.push(PointMark { kind: MarkKind::Pour, position: at(v), label: "pour".into() });
+            pour_placed = true;
+        }
         for v in p.mesh.vertices() {
             let sv = p.seg_vertex[v];
-            let pos = [p.uv[v].x * 1000.0, p.uv[v].y * 1000.0];
-            if Some(sv) == pour && !pour_placed {
-                marks.push(PointMark { kind: MarkKind::Pour, position: pos, label: "pour".into() });
-                pour_placed = true;
-            }
+            let pos = at(v);
             if clamped[sv] && marks.iter().filter(|m| m.kind == MarkKind::Clamp).count() < 12 {
-                let far = marks.iter().filter(|m| m.kind == MarkKind::Clamp).all(|m| {
+                // Apart from the other clamps and from the pour mark (the pour opening at the top
+                // is held too: its mark would be drawn over).
+                let far = marks.iter().all(|m| {
                     let d = [m.position[0] - pos[0], m.position[1] - pos[1]];
                     (d[0] * d[0] + d[1] * d[1]).sqrt() >= spacing
                 });
@@ -313,7 +323,13 @@ pub fn write_outputs(
     for w in all_writers() {
         let path = dir.join(w.file_name());
         let mut buf: Vec<u8> = Vec::new();
-        w.write(&r.pattern, &mut buf).map_err(|e| Failure::Internal(anyhow::anyhow!("writing {}: {e}", w.name())))?;
+        w.write(&r.pattern, &mut buf).map_err(|e| {
+            if e.is_option_error() {
+                Failure::Input(anyhow::anyhow!("writing {}: {e} (see the [pattern] section)", w.name()))
+            } else {
+                Failure::Internal(anyhow::anyhow!("writing {}: {e}", w.name()))
+            }
+        })?;
         write_atomic(&path, |f| std::io::Write::write_all(f, &buf))
             .with_context(|| format!("cannot write {}", path.display()))
             .internal()?;

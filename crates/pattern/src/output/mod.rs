@@ -152,7 +152,7 @@ pub(crate) fn piece_items(piece: &Piece, placed: bool) -> Vec<Item> {
     for t in piece.labels.iter().chain(&piece.seam_labels) {
         items.push(Item { layer: Layer::Text, prim: text(t) });
     }
-    let s = 0.6 * th;
+    let s = crate::pattern::mark_size(th);
     for m in &piece.marks {
         let c = m.position;
         let at = |dx: f64, dy: f64| tf([c[0] + dx, c[1] + dy]);
@@ -169,10 +169,9 @@ pub(crate) fn piece_items(piece: &Piece, placed: bool) -> Vec<Item> {
         items.push(Item { layer: Layer::Mark, prim: symbol });
         items.push(Item { layer: Layer::Mark, prim: Prim::Line(at(-s, 0.0), at(s, 0.0)) });
         items.push(Item { layer: Layer::Mark, prim: Prim::Line(at(0.0, -s), at(0.0, s)) });
-        if !m.label.is_empty() {
-            let t = Text { text: m.label.clone(), position: [c[0], c[1] - 1.6 * s], height: 0.6 * th, angle_deg: 0.0 };
-            items.push(Item { layer: Layer::Mark, prim: text(&t) });
-        }
+    }
+    for t in &piece.mark_labels {
+        items.push(Item { layer: Layer::Mark, prim: text(t) });
     }
     items.sort_by_key(|it| it.layer); // stable: keeps the order within a layer
     items
