@@ -263,7 +263,7 @@ impl Default for FieldSection {
 #[serde(deny_unknown_fields, default)]
 pub struct MeshSection {
     /// Mesh file (relative paths are relative to the config file). None: the built-in example.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", serialize_with = "lossy_path")]
     pub path: Option<PathBuf>,
     /// Units of the file's coordinates.
     pub units: Units,
@@ -326,9 +326,20 @@ impl Up {
         let n = (self.0[0].powi(2) + self.0[1].powi(2) + self.0[2].powi(2)).sqrt();
         self.0.map(|c| c / n)
     }
-    /// Parse "+x" / "-z" / "x" style names.
+    /// Parse "+x" / "-z" / "x" style names, or a vector "[x, y, z]" (finite, not zero).
     pub fn parse(s: &str) -> Result<Self, String> {
         let t = s.trim();
+        if let Some(inner) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            let c: Vec<f64> = inner.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+            return match c[..] {
+                [x, y, z] if [x, y, z].iter().all(|v| v.is_finite()) && (x != 0.0 || y != 0.0 || z != 0.0) => {
+                    Ok(Up([x, y, z]))
+                }
+                _ => {
+                    Err(format!("invalid direction {s:?}: a vector [x, y, z] needs three finite numbers, not all zero"))
+                }
+            };
+        }
         let (sign, name) = match t.as_bytes().first() {
             Some(b'+') => (1.0, &t[1..]),
             Some(b'-') => (-1.0, &t[1..]),
@@ -656,17 +667,19 @@ impl Config {
             reason: reason.into(),
         };
         let positive = |section: &str, key: &str, v: f64| {
-            if v > 0.0 && v.is_finite() {
-                Ok(())
-            } else {
-                Err(err(section, key, v.to_string(), "must be a positive number"))
-            }
+            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(err(section, key, show(v), "must be a positive number")) }
         };
         let non_negative = |section: &str, key: &str, v: f64| {
-            if v >= 0.0 && v.is_finite() {
+            if v >= 0.0 && v.is_finite() { Ok(()) } else { Err(err(section, key, show(v), "must be zero or positive")) }
+        };
+        // Upper bounds far beyond any fabric formwork, which keep the arithmetic finite (a value
+        // of 1e300 turned the solve's residual into NaN, a piece gap of 1e15 mm asked the nesting
+        // for petabytes).
+        let at_most = |section: &str, key: &str, v: f64, max: f64, what: &str| {
+            if v <= max {
                 Ok(())
             } else {
-                Err(err(section, key, v.to_string(), "must be zero or positive"))
+                Err(err(section, key, show(v), &format!("must be at most {} ({what})", show(max))))
             }
         };
         if let Some(h) = self.mesh.height {
@@ -676,6 +689,18 @@ impl Config {
             return Err(err("mesh", "min_faces", self.mesh.min_faces.to_string(), "must be at most 4000000"));
         }
         positive("material", "youngs_modulus", self.material.youngs_modulus)?;
+        let y = self.material.youngs_modulus;
+        if !(MODULUS_RANGE.0..=MODULUS_RANGE.1).contains(&y) {
+            return Err(err(
+                "material",
+                "youngs_modulus",
+                show(y),
+                &format!(
+                    "must lie in [{}, {}] N/m (woven formwork fabrics: 10⁴–10⁶ N/m)",
+                    MODULUS_RANGE.0, MODULUS_RANGE.1
+                ),
+            ));
+        }
         let nu = self.material.poisson_ratio;
         if !(nu > -1.0 && nu < 1.0) {
             return Err(err(
@@ -686,25 +711,32 @@ impl Config {
             ));
         }
         non_negative("material", "areal_density", self.material.areal_density)?;
+        at_most("material", "areal_density", self.material.areal_density, 100.0, "kg/m²: fabrics weigh 0.1–1")?;
         non_negative("infill", "density", self.infill.density)?;
+        at_most("infill", "density", self.infill.density, 1e5, "kg/m³: the densest metals are about 22000")?;
         if let FillLevel::Height(h) = self.infill.fill_level {
             non_negative("infill", "fill_level", h)?;
+            at_most("infill", "fill_level", h, 1e4, "m")?;
         }
-        if !self.infill.head_pressure.is_finite() {
-            return Err(err("infill", "head_pressure", self.infill.head_pressure.to_string(), "must be finite"));
+        let hp = self.infill.head_pressure;
+        if !(hp.is_finite() && hp.abs() <= 1e8) {
+            return Err(err("infill", "head_pressure", show(hp), "must be finite, at most 1e8 Pa either way"));
         }
         positive("suspension", "band", self.suspension.band)?;
         if self.suspension.mode == SuspensionMode::Vertices && self.suspension.vertices.is_empty() {
             return Err(err("suspension", "vertices", "[]".into(), "mode = \"vertices\" needs at least one vertex"));
         }
         for (i, s) in self.supports.iter().enumerate() {
+            if s.point.iter().any(|c| !c.is_finite()) {
+                return Err(err("supports", "point", format!("{:?} (support {i})", s.point), "must be finite"));
+            }
             let n = s.normal.iter().map(|c| c * c).sum::<f64>().sqrt();
-            if !(n > 0.0 && n.is_finite()) || s.point.iter().any(|c| !c.is_finite()) {
+            if !(n > 0.0 && n.is_finite()) {
                 return Err(err(
                     "supports",
                     "normal",
                     format!("{:?} (support {i})", s.normal),
-                    "point must be finite and normal non-zero",
+                    "must be finite and non-zero",
                 ));
             }
         }
@@ -738,8 +770,8 @@ impl Config {
         non_negative("field", "relax_merge_energy", f.relax_merge_energy)?;
         let l = &self.layout;
         non_negative("layout", "drift_penalty", l.drift_penalty)?;
-        if !(l.max_deviation > 0.0 && l.max_deviation <= 90.0) {
-            return Err(err("layout", "max_deviation", l.max_deviation.to_string(), "must lie in (0, 90] degrees"));
+        if !(l.max_deviation >= 0.1 && l.max_deviation <= 90.0) {
+            return Err(err("layout", "max_deviation", l.max_deviation.to_string(), "must lie in [0.1, 90] degrees"));
         }
         non_negative("layout", "capture_radius", l.capture_radius)?;
         non_negative("layout", "pin_spacing", l.pin_spacing)?;
@@ -762,7 +794,19 @@ impl Config {
         positive("pattern", "notch_spacing_mm", p.notch_spacing_mm)?;
         non_negative("pattern", "notch_length_mm", p.notch_length_mm)?;
         positive("pattern", "fabric_width_mm", p.fabric_width_mm)?;
+        at_most("pattern", "fabric_width_mm", p.fabric_width_mm, 1e5, "mm: a 100 m roll")?;
+        at_most(
+            "pattern",
+            "seam_allowance_mm",
+            p.seam_allowance_mm,
+            (0.25 * p.fabric_width_mm).min(100.0),
+            &format!(
+                "mm: at most 100, and a quarter of fabric_width_mm = {}, so that pieces fit between their allowances",
+                show(p.fabric_width_mm)
+            ),
+        )?;
         non_negative("pattern", "piece_gap_mm", p.piece_gap_mm)?;
+        at_most("pattern", "piece_gap_mm", p.piece_gap_mm, p.fabric_width_mm, "mm: the roll's width")?;
         positive("pattern", "text_height_mm", p.text_height_mm)?;
         if !(p.max_qc_mean >= 1.0) {
             return Err(err("pattern", "max_qc_mean", p.max_qc_mean.to_string(), "must be at least 1 (inf: no limit)"));
@@ -781,6 +825,11 @@ impl Config {
         }
         if let Some(k) = v.weft_stiffness {
             positive("validation", "weft_stiffness", k)?;
+        }
+        for (key, k) in [("warp_stiffness", v.warp_stiffness), ("weft_stiffness", v.weft_stiffness)] {
+            if let Some(k) = k {
+                at_most("validation", key, k, MODULUS_RANGE.1, "N/m")?;
+            }
         }
         positive("validation", "shear_ratio", v.shear_ratio)?;
         if let Some(k) = v.fabric_scale {
@@ -809,6 +858,25 @@ impl Config {
         Ok(())
     }
 }
+
+/// A number as a user reads it: plain, or in exponent form when very large or small (1e300
+/// rather than its 301 digits).
+fn show(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) { format!("{v:e}") } else { v.to_string() }
+}
+
+/// A path as text, its bytes that are not UTF-8 replaced (a file name of any bytes still gets
+/// its summary).
+fn lossy_path<S: serde::Serializer>(path: &Option<PathBuf>, s: S) -> Result<S::Ok, S::Error> {
+    match path {
+        Some(p) => s.serialize_some(&p.to_string_lossy()),
+        None => s.serialize_none(),
+    }
+}
+
+/// The thickness-integrated Young's moduli accepted (N/m): from a film far softer than any
+/// fabric to a steel sheet a few millimetres thick.
+const MODULUS_RANGE: (f64, f64) = (1.0, 1e9);
 
 /// 1-based line of `key = ...` inside `[section]` (or `[[section]]`) of a TOML text.
 fn locate_key(text: &str, section: &str, key: &str) -> Option<usize> {

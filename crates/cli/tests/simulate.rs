@@ -156,6 +156,30 @@ fn scenario_errors_exit_2() {
     // Suspension vertex that does not exist.
     let t = run_configured("simulate", &out, "[suspension]\nmode = \"vertices\"\nvertices = [0, 99999]\n", &[], 2);
     assert_mentions(&t, "99999");
+    // No load at all (no liquid, no head pressure, no weight): nothing to simulate, not a
+    // solve that fails to converge.
+    let t = run_configured("simulate", &out, "[infill]\nfill_level = 0.0\n", &[], 2);
+    assert_mentions(&t, "no load");
+    // `check` says the same of the inward mesh as `simulate` does.
+    let t = expect_exit(&run(&["check", inward.to_str().unwrap()]), 2);
+    assert_mentions(&t, "oriented inward");
+    // Values far beyond any fabric formwork, refused with their key (they made NaN residuals
+    // or asked the nesting for petabytes), and the output path a file.
+    for (toml, key) in [
+        ("[infill]\ndensity = 1e300\n", "infill.density"),
+        ("[material]\nyoungs_modulus = 1e-300\n", "material.youngs_modulus"),
+        ("[pattern]\npiece_gap_mm = 1e15\n", "pattern.piece_gap_mm"),
+        ("[[supports]]\npoint = [nan, 0.0, -0.01]\nnormal = [0.0, 0.0, 1.0]\n", "supports.point"),
+    ] {
+        let t = run_configured("simulate", &out, toml, &[], 2);
+        assert_mentions(&t, key);
+    }
+    let file = out.join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let t = expect_exit(&run_stage("simulate", &file, None, &[]), 2);
+    assert_mentions(&t, "not a directory");
+    // An up vector given on the command line as the message suggests.
+    expect_exit(&run_stage("simulate", &out, None, &["--up", "[0, 0, 1]", "--height", "0.3"]), 0);
 }
 
 #[test]

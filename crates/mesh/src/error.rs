@@ -13,12 +13,13 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum MeshError {
     /// The file could not be opened or read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error (in the message, not a `source`: printed with its chain, the reason
+        /// would come twice).
+        error: std::io::Error,
     },
     /// The file extension is not a mesh format we read.
     #[error("{path}: unknown mesh format (expected .obj, .ply, .stl or .off)")]

@@ -159,6 +159,13 @@ pub enum SimError {
         /// The face.
         face: FaceId,
     },
+    /// Nothing loads the mold (no liquid, no head pressure, no self weight): its equilibrium
+    /// is the target itself, and the solve's relative residual would have no scale.
+    #[error(
+        "the scenario puts no load on the mold (no liquid: [infill] density is 0 or fill_level at or below the \
+         mold's lowest point; no head_pressure; no self weight): there is nothing to simulate"
+    )]
+    NoLoad,
     /// The linear solver failed (not an input problem).
     #[error("linear solver failure: {0}")]
     Solver(#[from] SolveError),
@@ -429,7 +436,10 @@ fn simulate_with_rest(
         self_weight: sc.self_weight.filter(|&a| a > 0.0).map(|a| (a * sc.gravity, up)),
     };
 
-    // Preconditions.
+    // Preconditions. (A sewn mold is loaded by its own pattern too.)
+    if hydro.is_none() && loads.head_pressure == 0.0 && loads.self_weight.is_none() && rest.is_none() {
+        return Err(SimError::NoLoad);
+    }
     if (hydro.is_some() || loads.head_pressure > 0.0) && mesh.signed_volume() < 0.0 {
         return Err(SimError::InwardOrientation { volume: mesh.signed_volume() });
     }

@@ -35,6 +35,9 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<(), Failure> {
             "converged",
         );
     }
+    if !(args.height > 0.0 && args.height.is_finite()) {
+        return Err(Failure::Input(anyhow::anyhow!("--height {}: must be a positive number (metres)", args.height)));
+    }
     for m in meshes {
         let mut cfg = base.clone();
         cfg.mesh.path = m.clone();

@@ -136,8 +136,19 @@ pub fn check(args: &CheckArgs, progress: &Progress) -> Result<(), Failure> {
     let opts = RepairOptions { repair: args.repair, largest_component: args.largest_component, ..Default::default() };
     let prepared = prepare(&soup, &opts);
     drop(stage);
-    let usable = prepared.is_ok();
+    // An inward-oriented mesh is read and repaired like any other, but the simulation refuses
+    // it (the infill would pull the fabric in) unless --repair flips it.
+    let inward = prepared.as_ref().ok().map(|p| p.mesh.signed_volume()).filter(|&v| v < 0.0).map(|v| {
+        format!(
+            "the mesh is oriented inward (its enclosed volume is {v:.4e}, negative): run and simulate refuse it; \
+             --repair flips it"
+        )
+    });
+    let usable = prepared.is_ok() && inward.is_none();
     report["usable"] = Value::Bool(usable);
+    if let Some(why) = &inward {
+        report["error"] = Value::String(why.clone());
+    }
     if let Ok(p) = &prepared
         && (args.repair || args.largest_component)
     {
@@ -169,6 +180,7 @@ pub fn check(args: &CheckArgs, progress: &Progress) -> Result<(), Failure> {
             }
         }
         match &prepared {
+            Ok(_) if let Some(why) = &inward => println!("  usable: no ({why})"),
             Ok(_) => println!("  usable: yes"),
             Err(e) => {
                 let first = match e {
@@ -188,7 +200,7 @@ pub fn check(args: &CheckArgs, progress: &Progress) -> Result<(), Failure> {
             let first = match &prepared {
                 Err(MeshError::Invalid { problems }) => problems.first().map(|p| p.to_string()).unwrap_or_default(),
                 Err(e) => e.to_string(),
-                Ok(_) => String::new(),
+                Ok(_) => inward.clone().unwrap_or_default(),
             };
             eprintln!("error: {path} is not usable: {first}");
         }

@@ -89,9 +89,22 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
     for line in input.repairs.lines() {
         progress.say(format!("repair: {line}"));
     }
+    // The output directory, and whether files can be written there, before the work (a
+    // path naming a file, or a directory without write access, is the user's to fix).
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(Failure::Input(anyhow::anyhow!(
+            "the output path {} exists and is not a directory",
+            args.out.display()
+        )));
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))
-        .internal()?;
+        .map_err(Failure::Input)?;
+    let probe = args.out.join(".clothcast-write-test");
+    std::fs::write(&probe, b"")
+        .and_then(|()| std::fs::remove_file(&probe))
+        .with_context(|| format!("cannot write in output directory {}", args.out.display()))
+        .map_err(Failure::Input)?;
 
     // Stage 1: simulation.
     let sim = stages::simulation::run(&cfg, &input, progress)?;

@@ -58,7 +58,7 @@ pub fn read_mesh_bytes(bytes: &[u8], format: MeshFormat, name: &str) -> Result<T
 pub fn read_mesh_file(path: &Path) -> Result<TriSoup, MeshError> {
     let name = path.display().to_string();
     let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat { path: name.clone() })?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Io { path: path.to_path_buf(), error })?;
     if bytes.is_empty() {
         return Err(MeshError::EmptyFile { path: name });
     }
