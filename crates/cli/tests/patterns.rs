@@ -316,6 +316,29 @@ fn flatten_command_and_determinism() {
     assert_reproducible("flatten", "3", &files);
 }
 
+/// A run that fails leaves the output directory as the last complete run left it, and what
+/// it wrote before failing in `failed-run/` (the layout that could not be made into patterns).
+#[test]
+fn a_failed_run_leaves_the_last_complete_run_whole() {
+    let out = tmpdir("failed-run");
+    run_configured("segment", &out, "", &["--height", "0.3"], 0);
+    let before: Vec<Vec<u8>> =
+        ["summary.json", "segmentation.ply"].iter().map(|f| std::fs::read(out.join(f)).unwrap()).collect();
+    let t = run_configured(
+        "flatten",
+        &out,
+        "[pattern]\nnotch_spacing_mm = 0.001\n",
+        &["--height", "0.3", "--seed", "2"],
+        2,
+    );
+    assert_mentions(&t, "failed-run");
+    for (f, b) in ["summary.json", "segmentation.ply"].iter().zip(&before) {
+        assert_eq!(&std::fs::read(out.join(f)).unwrap(), b, "{f} changed");
+    }
+    assert!(out.join("failed-run/segmentation.ply").exists());
+    assert!(!out.join("patterns").exists() && !out.join(".clothcast-partial").exists());
+}
+
 #[test]
 fn a_roll_too_narrow_is_an_input_error() {
     let out = tmpdir("narrow");
