@@ -10,7 +10,7 @@ use crate::Vec3;
 use crate::error::MeshError;
 use crate::soup::TriSoup;
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{Header, PropertyAccess, PropertyAccessResult};
+use ply_rs_bw::ply::{Header, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
 use std::collections::BTreeMap;
 use std::io::Write;
 
@@ -365,6 +365,32 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
                         message: "face element has no `vertex_indices` list".into(),
                     });
                 }
+                // The indices must be a list of integers (a list of floats would be read as
+                // empty faces, and reported as faces of 0 vertices).
+                let key = if def.properties.contains_key("vertex_indices") { "vertex_indices" } else { "vertex_index" };
+                if let Some(prop) = def.properties.get(key)
+                    && !matches!(
+                        prop.data_type,
+                        PropertyType::List(
+                            _,
+                            ScalarType::Char
+                                | ScalarType::UChar
+                                | ScalarType::Short
+                                | ScalarType::UShort
+                                | ScalarType::Int
+                                | ScalarType::UInt
+                        )
+                    )
+                {
+                    return Err(MeshError::Malformed {
+                        path: name.into(),
+                        line: None,
+                        message: format!(
+                            "face `{key}` is declared as {:?}: vertex indices must be a list of integers",
+                            prop.data_type
+                        ),
+                    });
+                }
                 polygons = Parser::<PlyFace>::new()
                     .read_payload_for_element(&mut reader, def, &header)
                     .map_err(|e| ply_err(name, e))?
@@ -495,5 +521,10 @@ mod tests {
         let e = read_ply(&bad, "be.ply").unwrap_err();
         assert!(matches!(e, MeshError::IndexOutOfRange { index: 9, .. }), "{e}");
         assert!(read_ply(b"plyx\ngarbage", "g.ply").is_err());
+        // Face indices declared as floats: named as such, not read as faces of 0 vertices.
+        let floats = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+            element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        let e = read_ply(floats, "f.ply").unwrap_err().to_string();
+        assert!(e.contains("must be a list of integers"), "{e}");
     }
 }
