@@ -14,8 +14,8 @@ use serde::Serialize;
 
 use crate::error::PatternError;
 use crate::geom::{
-    BBox, P2, add, axpy, centroid, dist, dist_point_boundary, normalize, point_in_polygon, ray_hit, rotate_quarter,
-    segment_inside, signed_area,
+    BBox, P2, add, axpy, centroid, dist, dist_point_boundary, normalize, perimeter, point_in_polygon, ray_hit,
+    rotate_quarter, segment_inside, signed_area,
 };
 use crate::input::{PatternOptions, PieceInput, PointMark};
 use crate::labels::{LabelBox, Placer, Region, heights, mark_candidates};
@@ -504,11 +504,13 @@ fn text_candidates(t: &Text, next_to: &Text, sew: &[P2], r: f64) -> Vec<(Text, R
     if r > 0.0 {
         let n = sew.len();
         let mut band = Vec::new();
+        // Every two box heights along the sewing line, at most about BAND_SAMPLES in all.
+        let spacing = (4.0 * half[1]).max(perimeter(sew) / BAND_SAMPLES);
         for i in 0..n {
             let (a, e) = (sew[i], sew[(i + 1) % n]);
             let len = dist(a, e);
             let out_normal = normalize([e[1] - a[1], a[0] - e[0]]);
-            let steps = (len / (4.0 * half[1])).ceil().max(1.0) as usize;
+            let steps = (len / spacing).ceil().max(1.0) as usize;
             for k in 0..steps {
                 let q = axpy(a, (k as f64 + 0.5) / steps as f64, [e[0] - a[0], e[1] - a[1]]);
                 band.push(axpy(q, 0.5 * r, out_normal));
@@ -518,6 +520,9 @@ fn text_candidates(t: &Text, next_to: &Text, sew: &[P2], r: f64) -> Vec<(Text, R
     }
     out
 }
+
+/// About how many places along the sewing line a text is tried in the seam allowance.
+const BAND_SAMPLES: f64 = 400.0;
 
 /// The label of a seam side at the fraction `t` of its length, its centre `offset` (mm) out
 /// of the side (negative: inside the piece), its baseline along the side (turned to read

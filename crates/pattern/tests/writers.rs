@@ -4,7 +4,7 @@
 mod common;
 
 use clothcast_pattern::geom::P2;
-use clothcast_pattern::output::pdf::{A4_MM, PT_PER_MM, a4_tile_grid, piece_page_size_mm};
+use clothcast_pattern::output::pdf::{A4_MM, PT_PER_MM, a4_tile_grid, a4_tiles_used, piece_page_size_mm};
 use clothcast_pattern::{
     DxfWriter, Pattern, PatternOptions, PatternWriter, PdfMode, PdfWriter, SvgWriter, all_writers, build_pattern,
 };
@@ -204,7 +204,9 @@ fn pdf_a4_tiles_cover_the_roll() {
     let pdf = bytes(&PdfWriter { mode: PdfMode::TiledA4 }, &pat);
     let pages = pdf_pages(&pdf);
     let (rows, cols) = a4_tile_grid(pat.fabric_length_mm, pat.fabric_width_mm);
-    assert_eq!(pages.len(), rows * cols);
+    let used = a4_tiles_used(&pat);
+    assert_eq!(pages.len(), used.len());
+    assert!(used.len() <= rows * cols && used.contains(&(rows - 1, cols - 1)), "{used:?}");
     assert!(rows >= 4 && cols >= 2, "{rows} x {cols}");
     for mb in &pages {
         assert!((mb[2] - A4_MM[0] * 72.0 / 25.4).abs() < 0.01 && (mb[3] - A4_MM[1] * 72.0 / 25.4).abs() < 0.01);
@@ -213,6 +215,21 @@ fn pdf_a4_tiles_cover_the_roll() {
     assert!(s.contains(&format!("(row {rows} / col {cols})")));
     assert!(s.contains("(100 mm)"));
     assert_eq!(s.matches("/Subtype /Form").count(), 1);
+}
+
+/// A small piece on a wide roll: only the tile that shows it is printed (the roll's other
+/// rows are empty fabric), with its own row and column.
+#[test]
+fn pdf_a4_tiles_without_a_piece_are_not_printed() {
+    let pat = build_pattern(&[common::rect_piece(1, 100.0, 100.0)], &PatternOptions::default()).unwrap();
+    let (rows, cols) = a4_tile_grid(pat.fabric_length_mm, pat.fabric_width_mm);
+    assert_eq!((rows, cols), (6, 1));
+    let used = a4_tiles_used(&pat);
+    assert_eq!(used.len(), 1, "{used:?}");
+    let pdf = bytes(&PdfWriter { mode: PdfMode::TiledA4 }, &pat);
+    assert_eq!(pdf_pages(&pdf).len(), 1);
+    let (r, c) = used[0];
+    assert!(String::from_utf8_lossy(&pdf).contains(&format!("(row {} / col {})", r + 1, c + 1)));
 }
 
 #[test]

@@ -27,7 +27,7 @@ use pdf_writer::{Content, Finish, Name, Pdf, Rect, Ref, Str};
 
 use super::{HELVETICA_CAP_HEIGHT, Item, Layer, PatternWriter, Prim, helvetica_width, piece_items};
 use crate::error::PatternError;
-use crate::geom::{BBox, P2};
+use crate::geom::{BBox, P2, point_in_polygon, segments_intersect};
 use crate::pattern::{Pattern, Text};
 
 /// Points per millimetre.
@@ -72,6 +72,56 @@ pub fn a4_tile_grid(length_mm: f64, width_mm: f64) -> (usize, usize) {
         if extent <= w { 1 } else { 1 + ((extent - w) / (w - TILE_OVERLAP_MM) - 1e-9).ceil() as usize }
     };
     (count(width_mm, win[1]), count(length_mm, win[0]))
+}
+
+/// The tiles of the A4 tiling (row, column; row 0 at the roll's top edge) that show some
+/// piece: those whose window meets a piece's cut line or lies inside one. The others show only
+/// empty roll and are not printed.
+pub fn a4_tiles_used(pattern: &Pattern) -> Vec<(usize, usize)> {
+    let (len, wid) = (pattern.fabric_length_mm, pattern.fabric_width_mm);
+    let (rows, cols) = a4_tile_grid(len, wid);
+    if rows.saturating_mul(cols) > MAX_TILES {
+        return Vec::new(); // refused by the writer (PatternError::TooManyPages)
+    }
+    let (win, step) = tile_window_and_step();
+    let cuts: Vec<(Vec<P2>, BBox)> = pattern
+        .pieces
+        .iter()
+        .map(|p| {
+            let c = p.placed_cut();
+            let b = BBox::of(&c);
+            (c, b)
+        })
+        .collect();
+    let mut used = Vec::new();
+    for r in 0..rows {
+        for col in 0..cols {
+            let lo = [col as f64 * step[0], wid - r as f64 * step[1] - win[1]];
+            let hi = [lo[0] + win[0], lo[1] + win[1]];
+            let window = BBox { min: lo, max: hi };
+            let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
+            let inside = |q: P2| q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1];
+            let shows = cuts.iter().any(|(c, b)| {
+                b.intersects(&window)
+                    && (c.iter().any(|&q| inside(q))
+                        || point_in_polygon(corners[0], c)
+                        || (0..c.len()).any(|i| {
+                            let (a, e) = (c[i], c[(i + 1) % c.len()]);
+                            (0..4).any(|k| segments_intersect(a, e, corners[k], corners[(k + 1) % 4]))
+                        }))
+            });
+            if shows {
+                used.push((r, col));
+            }
+        }
+    }
+    used
+}
+
+/// An A4 tile's window on the roll (mm) and the step between neighbouring windows.
+fn tile_window_and_step() -> ([f64; 2], [f64; 2]) {
+    let win = [A4_MM[0] - 2.0 * TILE_MARGIN_MM, A4_MM[1] - 2.0 * TILE_MARGIN_MM];
+    (win, [win[0] - TILE_OVERLAP_MM, win[1] - TILE_OVERLAP_MM])
 }
 
 /// Page size (mm) of a piece in [`PdfMode::Pieces`].
@@ -299,72 +349,75 @@ fn render_tiles(pattern: &Pattern) -> Result<Vec<u8>, PatternError> {
     xo.finish();
 
     let m = TILE_MARGIN_MM;
-    let win = [A4_MM[0] - 2.0 * m, A4_MM[1] - 2.0 * m];
-    let step = [win[0] - TILE_OVERLAP_MM, win[1] - TILE_OVERLAP_MM];
+    let (win, step) = tile_window_and_step();
     let k = PT_PER_MM;
-    let mut kids = Vec::with_capacity(rows * cols);
-    for r in 0..rows {
-        for col in 0..cols {
-            let i = (r * cols + col) as i32;
-            let (page_id, content_id) = (Ref::new(5 + 2 * i), Ref::new(6 + 2 * i));
-            // Roll coordinates of the window's lower-left corner.
-            let origin = [col as f64 * step[0], wid - r as f64 * step[1] - win[1]];
-            let mut c = Content::new();
-            c.save_state();
-            c.rect(f(k * m), f(k * m), f(k * win[0]), f(k * win[1]));
-            c.clip_nonzero();
-            c.end_path();
-            c.transform([f(k), 0.0, 0.0, f(k), f(k * (m - origin[0])), f(k * (m - origin[1]))]);
-            c.x_object(LAYOUT);
-            c.restore_state();
+    // Only the tiles that show a piece are printed; each keeps its row and column label.
+    let used = a4_tiles_used(pattern);
+    let mut kids = Vec::with_capacity(used.len());
+    for (i, &(r, col)) in used.iter().enumerate() {
+        let (page_id, content_id) = (Ref::new(5 + 2 * i as i32), Ref::new(6 + 2 * i as i32));
+        // Roll coordinates of the window's lower-left corner.
+        let origin = [col as f64 * step[0], wid - r as f64 * step[1] - win[1]];
+        let mut c = Content::new();
+        c.save_state();
+        c.rect(f(k * m), f(k * m), f(k * win[0]), f(k * win[1]));
+        c.clip_nonzero();
+        c.end_path();
+        c.transform([f(k), 0.0, 0.0, f(k), f(k * (m - origin[0])), f(k * (m - origin[1]))]);
+        c.x_object(LAYOUT);
+        c.restore_state();
 
-            // Page furniture, in page mm.
-            c.save_state();
-            c.transform([f(k), 0.0, 0.0, f(k), 0.0, 0.0]);
-            c.set_stroke_rgb(0.0, 0.0, 0.0);
-            c.set_line_width(0.2);
-            c.rect(f(m), f(m), f(win[0]), f(win[1]));
-            c.stroke();
-            let (x0, y0, x1, y1) = (m, m, A4_MM[0] - m, A4_MM[1] - m);
-            for (cx, cy, sx, sy) in [(x0, y0, -1.0, -1.0), (x1, y0, 1.0, -1.0), (x0, y1, -1.0, 1.0), (x1, y1, 1.0, 1.0)]
-            {
-                polyline(&mut c, &[[cx, cy + sy * 2.0], [cx, cy + sy * 8.0]], false);
-                polyline(&mut c, &[[cx + sx * 2.0, cy], [cx + sx * 8.0, cy]], false);
-            }
-            c.set_dash_pattern([2.0, 2.0], 0.0);
-            let o = TILE_OVERLAP_MM;
-            if col > 0 {
-                polyline(&mut c, &[[x0 + o, y0], [x0 + o, y1]], false);
-            }
-            if col + 1 < cols {
-                polyline(&mut c, &[[x1 - o, y0], [x1 - o, y1]], false);
-            }
-            if r > 0 {
-                polyline(&mut c, &[[x0, y1 - o], [x1, y1 - o]], false);
-            }
-            if r + 1 < rows {
-                polyline(&mut c, &[[x0, y0 + o], [x1, y0 + o]], false);
-            }
-            c.set_dash_pattern([], 0.0);
-            scale_bar(&mut c, [m, 4.0], 100.0);
-            let label = format!("row {} / col {}", r + 1, col + 1);
-            let w = helvetica_width(&label) * 3.0 / HELVETICA_CAP_HEIGHT;
-            text(&mut c, &Text { text: label, position: [x1 - 0.5 * w, 4.0], height: 3.0, angle_deg: 0.0 });
-            let info = format!("clothcast pattern, A4 tile {} of {}, overlap {} mm", i + 1, rows * cols, o);
-            let w = helvetica_width(&info) * 2.5 / HELVETICA_CAP_HEIGHT;
-            text(&mut c, &Text { text: info, position: [x0 + 0.5 * w, y1 + 4.0], height: 2.5, angle_deg: 0.0 });
-            c.restore_state();
-            let data = c.finish();
-            pdf.stream(content_id, &data);
-            let mut page = pdf.page(page_id);
-            page.parent(tree).media_box(Rect::new(0.0, 0.0, f(A4_MM[0] * k), f(A4_MM[1] * k))).contents(content_id);
-            let mut res = page.resources();
-            res.fonts().pair(FONT, font);
-            res.x_objects().pair(LAYOUT, form);
-            res.finish();
-            page.finish();
-            kids.push(page_id);
+        // Page furniture, in page mm.
+        c.save_state();
+        c.transform([f(k), 0.0, 0.0, f(k), 0.0, 0.0]);
+        c.set_stroke_rgb(0.0, 0.0, 0.0);
+        c.set_line_width(0.2);
+        c.rect(f(m), f(m), f(win[0]), f(win[1]));
+        c.stroke();
+        let (x0, y0, x1, y1) = (m, m, A4_MM[0] - m, A4_MM[1] - m);
+        for (cx, cy, sx, sy) in [(x0, y0, -1.0, -1.0), (x1, y0, 1.0, -1.0), (x0, y1, -1.0, 1.0), (x1, y1, 1.0, 1.0)] {
+            polyline(&mut c, &[[cx, cy + sy * 2.0], [cx, cy + sy * 8.0]], false);
+            polyline(&mut c, &[[cx + sx * 2.0, cy], [cx + sx * 8.0, cy]], false);
         }
+        c.set_dash_pattern([2.0, 2.0], 0.0);
+        let o = TILE_OVERLAP_MM;
+        if col > 0 {
+            polyline(&mut c, &[[x0 + o, y0], [x0 + o, y1]], false);
+        }
+        if col + 1 < cols {
+            polyline(&mut c, &[[x1 - o, y0], [x1 - o, y1]], false);
+        }
+        if r > 0 {
+            polyline(&mut c, &[[x0, y1 - o], [x1, y1 - o]], false);
+        }
+        if r + 1 < rows {
+            polyline(&mut c, &[[x0, y0 + o], [x1, y0 + o]], false);
+        }
+        c.set_dash_pattern([], 0.0);
+        scale_bar(&mut c, [m, 4.0], 100.0);
+        let label = format!("row {} / col {}", r + 1, col + 1);
+        let w = helvetica_width(&label) * 3.0 / HELVETICA_CAP_HEIGHT;
+        text(&mut c, &Text { text: label, position: [x1 - 0.5 * w, 4.0], height: 3.0, angle_deg: 0.0 });
+        let info = format!(
+            "clothcast pattern, A4 tile {} of {} ({} of the {rows} x {cols} grid show no piece), overlap {} mm",
+            i + 1,
+            used.len(),
+            rows * cols - used.len(),
+            o
+        );
+        let w = helvetica_width(&info) * 2.5 / HELVETICA_CAP_HEIGHT;
+        text(&mut c, &Text { text: info, position: [x0 + 0.5 * w, y1 + 4.0], height: 2.5, angle_deg: 0.0 });
+        c.restore_state();
+        let data = c.finish();
+        pdf.stream(content_id, &data);
+        let mut page = pdf.page(page_id);
+        page.parent(tree).media_box(Rect::new(0.0, 0.0, f(A4_MM[0] * k), f(A4_MM[1] * k))).contents(content_id);
+        let mut res = page.resources();
+        res.fonts().pair(FONT, font);
+        res.x_objects().pair(LAYOUT, form);
+        res.finish();
+        page.finish();
+        kids.push(page_id);
     }
     finish_pages(&mut pdf, catalog, tree, &kids);
     Ok(pdf.finish())
