@@ -4,8 +4,10 @@
 //!
 //! For a seam with sides of lengths L₁, L₂ (mean L̄), the notches sit at the seam's ends and at
 //! arc lengths `s_k = k · spacing`, `k = 1..m`, measured along the seam's own direction (from
-//! its 3D start), with `m = ⌊L̄ / spacing − ε⌋` computed once per seam (ε = 1e-9, so that a
-//! notch never lands on, or a hair before, the far end). Each side places notch k at its
+//! its 3D start), with `m = ⌊L̄ / spacing − 0.1 − ε⌋` computed once per seam (ε = 1e-9): the
+//! last interior notch keeps at least a tenth of the spacing from the far end's notch (a
+//! notch 0.8 mm from the end one, as a review found on bunny, is a double mark to the sewer,
+//! not a match mark). Each side places notch k at its
 //! *normalised* arc length `s_k / L̄ · L_side`: notch k on one side meets notch k on the other
 //! when the seam is sewn, even if the flattening left the two sides slightly different in
 //! length (reported by [`seam_length_mismatch`]).
@@ -22,6 +24,9 @@ use crate::validate::{group_seams, side_edge_count};
 
 /// Relative slack of the interior-notch count (see the module docs).
 pub const NOTCH_COUNT_EPS: f64 = 1e-9;
+
+/// The last interior notch keeps this many spacings from the seam's far end.
+pub const NOTCH_END_CLEARANCE: f64 = 0.1;
 
 /// A seam side as a polyline in the seam's own direction.
 #[derive(Debug, Clone)]
@@ -79,7 +84,7 @@ impl SidePath {
 }
 
 /// Normalised arc-length parameters `t ∈ [0, 1]` of a seam's notches: both ends and
-/// `k · spacing / L̄` for `k = 1..m`, `m = ⌊L̄ / spacing − ε⌋`.
+/// `k · spacing / L̄` for `k = 1..m`, `m = ⌊L̄ / spacing − 0.1 − ε⌋`.
 pub fn notch_params(mean_length: f64, spacing: f64) -> Vec<f64> {
     let m = interior_notch_count(mean_length, spacing);
     let mut t = Vec::with_capacity(m + 2);
@@ -91,12 +96,12 @@ pub fn notch_params(mean_length: f64, spacing: f64) -> Vec<f64> {
     t
 }
 
-/// `⌊L̄ / spacing − ε⌋`, at least 0 (as f64 so that absurd counts can be reported).
+/// `⌊L̄ / spacing − 0.1 − ε⌋`, at least 0 (as f64 so that absurd counts can be reported).
 pub fn interior_notch_count_f64(mean_length: f64, spacing: f64) -> f64 {
-    (mean_length / spacing - NOTCH_COUNT_EPS).floor().max(0.0)
+    (mean_length / spacing - NOTCH_END_CLEARANCE - NOTCH_COUNT_EPS).floor().max(0.0)
 }
 
-/// `⌊L̄ / spacing − ε⌋`, at least 0.
+/// `⌊L̄ / spacing − 0.1 − ε⌋`, at least 0.
 pub fn interior_notch_count(mean_length: f64, spacing: f64) -> usize {
     interior_notch_count_f64(mean_length, spacing) as usize
 }
@@ -133,6 +138,10 @@ mod tests {
         assert_eq!(interior_notch_count(200.0, 100.0), 1);
         assert_eq!(interior_notch_count(99.0, 100.0), 0);
         assert_eq!(notch_params(200.0, 100.0), vec![0.0, 0.5, 1.0]);
+        // An interior notch less than a tenth of the spacing from the far end is left out.
+        assert_eq!(interior_notch_count(100.84, 100.0), 0);
+        assert_eq!(interior_notch_count(110.0, 100.0), 0);
+        assert_eq!(interior_notch_count(111.0, 100.0), 1);
     }
 
     #[test]

@@ -48,7 +48,10 @@ fn notches_pair_up_by_normalised_arc_length() {
 
 #[test]
 fn notch_count_is_shared_and_exact_multiples_do_not_double_the_end() {
-    for (h0, h1, interior) in [(200.0, 200.0, 1), (199.0, 201.0, 1), (99.0, 99.0, 0), (300.0, 300.5, 3)] {
+    // 300.25 mm: no notch at 300, a quarter millimetre before the end's (a double mark).
+    for (h0, h1, interior) in
+        [(200.0, 200.0, 1), (199.0, 201.0, 1), (99.0, 99.0, 0), (300.0, 300.5, 2), (315.0, 315.0, 3)]
+    {
         let pat = build_pattern(&two_panels(h0, h1), &PatternOptions::default()).unwrap();
         assert_eq!(pat.pieces[0].notches.len(), interior + 2, "{h0} {h1}");
         assert_eq!(pat.pieces[1].notches.len(), interior + 2, "{h0} {h1}");
