@@ -330,14 +330,16 @@ impl Up {
     pub fn parse(s: &str) -> Result<Self, String> {
         let t = s.trim();
         if let Some(inner) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
-            let c: Vec<f64> = inner.split(',').filter_map(|x| x.trim().parse().ok()).collect();
-            return match c[..] {
-                [x, y, z] if [x, y, z].iter().all(|v| v.is_finite()) && (x != 0.0 || y != 0.0 || z != 0.0) => {
-                    Ok(Up([x, y, z]))
-                }
-                _ => {
-                    Err(format!("invalid direction {s:?}: a vector [x, y, z] needs three finite numbers, not all zero"))
-                }
+            let c: Result<Vec<f64>, _> = inner.split(',').map(|x| x.trim().parse::<f64>()).collect();
+            let up = match c.as_deref() {
+                Ok(&[x, y, z]) => Up([x, y, z]),
+                _ => return Err(format!("invalid direction {s:?}: a vector [x, y, z] needs three numbers")),
+            };
+            let n = up.0.iter().map(|c| c * c).sum::<f64>().sqrt();
+            return if n > 0.0 && n.is_finite() {
+                Ok(up)
+            } else {
+                Err(format!("invalid direction {s:?}: its length must be finite and not zero"))
             };
         }
         let (sign, name) = match t.as_bytes().first() {

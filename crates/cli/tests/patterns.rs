@@ -339,6 +339,19 @@ fn a_failed_run_leaves_the_last_complete_run_whole() {
     assert!(!out.join("patterns").exists() && !out.join(".clothcast-partial").exists());
 }
 
+/// A complete run replaces the files of its stages that it did not write: the check's
+/// `cast.ply` of an earlier run does not stay beside patterns it was not made from.
+#[test]
+fn a_run_removes_its_stages_files_it_did_not_write() {
+    let out = tmpdir("stale");
+    run_configured("run", &out, "", &["--height", "0.3"], 0);
+    assert!(out.join("cast.ply").exists());
+    run_configured("run", &out, "[validation]\nenabled = false\n", &["--height", "0.3", "--seed", "2"], 0);
+    assert!(!out.join("cast.ply").exists());
+    assert!(summary(&out)["validation"].is_null());
+    assert!(out.join("patterns/pattern.dxf").exists() && !out.join(".clothcast-partial").exists());
+}
+
 #[test]
 fn a_roll_too_narrow_is_an_input_error() {
     let out = tmpdir("narrow");

@@ -1,17 +1,20 @@
 //! Where a piece's texts go: every label's box (its Helvetica advance width by its height) kept
-//! inside the sewing line and clear of the piece's other labels, its marks and its grain arrow.
+//! on the piece's fabric (inside the sewing line, or in the seam allowance) and clear of the
+//! piece's other texts, its marks, its notches and its grain arrow.
 //!
-//! The piece's name and area stay at its interior anchor (the deepest point, see
-//! [`crate::pattern::interior_anchor`]); around them, each mark's label and then each seam
-//! side's label take the first of a few candidate places that is free: for a mark below, above,
-//! right or left of it; for a seam side at a few points along the side (from its middle out)
-//! and depths inside it, at the full text height and then smaller, down to
-//! [`crate::pattern::MIN_TEXT_MM`]. A label with no free place keeps its first candidate at the
-//! smallest height and is counted ([`crate::PatternStats::labels_crowded`]).
+//! The piece's name stays at its interior anchor (the deepest point, see
+//! [`crate::pattern::interior_anchor`]); around it, the area, each mark's label and then each
+//! seam side's label take the first of their candidate places that is free: the area below,
+//! beside the name, then anywhere inside, then in the allowance; a mark's label around the mark,
+//! inside then in the allowance; a seam side's label at a few points along the side (from its
+//! middle out) and depths inside it at half the text height or more, then in the allowance,
+//! then inside at smaller heights down to [`crate::pattern::MIN_TEXT_MM`]. A label with no free
+//! place takes the candidate in its region that overlaps the others least and is counted
+//! ([`crate::PatternStats::labels_crowded`]).
 //!
 //! Hand-written: a greedy placement over oriented rectangles (separating-axis overlap tests,
-//! O(candidates · (n + labels)) per label for a sewing line of n vertices); no crate places
-//! labels inside a polygon.
+//! O(candidates · (n + labels)) per label for a sewing line of n vertices, a few hundred
+//! candidates per label); no crate places labels inside a polygon.
 
 use crate::geom::{P2, add, axpy, dot, normalize, point_in_polygon, segment_inside, segments_intersect, sub};
 use crate::output::helvetica_width;
@@ -172,7 +175,7 @@ impl<'a> Placer<'a> {
                 let cost = |i: usize| {
                     let b = &boxes[i];
                     let depth: f64 = self.taken.iter().map(|t| t.penetration(b)).sum();
-                    (!self.within(b, candidates[i].1), depth / b.half[1])
+                    (!self.within(b, candidates[i].1), depth / b.half[1].max(f64::MIN_POSITIVE))
                 };
                 let costs: Vec<(bool, f64)> = (0..boxes.len()).map(cost).collect();
                 (0..boxes.len()).min_by(|&i, &j| {

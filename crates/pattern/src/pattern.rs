@@ -3,19 +3,20 @@
 //!
 //! Data flow per piece: validated outline → cut line ([`crate::offset`]) → notches on every
 //! seam side ([`crate::seams`], ticks ending on the cut line) → an interior anchor point
-//! (approximate pole of inaccessibility) carrying the grain arrow and the name/area labels →
-//! seam labels inside the piece near each side's midpoint → marks copied. Then all pieces are
-//! nested ([`crate::nest`]) and the statistics gathered.
+//! (approximate pole of inaccessibility) carrying the grain arrow and the name → the area,
+//! mark and seam labels placed clear of each other → marks copied. Then
+//! all pieces are nested ([`crate::nest`]) and the statistics gathered.
 //!
 //! Complexity: O(n log n) per piece for the offset, O(G² · n) for the anchor search (G = 24
-//! grid steps), plus nesting; all sequential and deterministic.
+//! grid steps), O(candidates · n) per label (a few hundred candidates), plus nesting; all
+//! sequential and deterministic.
 
 use serde::Serialize;
 
 use crate::error::PatternError;
 use crate::geom::{
     BBox, P2, add, axpy, centroid, dist, dist_point_boundary, normalize, perimeter, point_in_polygon, ray_hit,
-    rotate_quarter, segment_inside, signed_area,
+    right_normal, rotate_quarter, segment_inside, signed_area, sub,
 };
 use crate::input::{PatternOptions, PieceInput, PointMark};
 use crate::labels::{LabelBox, Placer, Region, heights, mark_candidates};
@@ -106,11 +107,13 @@ pub struct Piece {
     pub cut_area_mm2: f64,
     /// Match marks of all seam sides, by side then along the seam.
     pub notches: Vec<Notch>,
-    /// One label per seam side, inside the piece near the side's midpoint.
+    /// One label per seam side, along it: inside the piece, or in the seam allowance where the
+    /// inside has no room.
     pub seam_labels: Vec<Text>,
     /// The grain line.
     pub grain: GrainArrow,
-    /// Name, then area in m² (3 decimals), below the grain arrow.
+    /// Name (below the grain arrow), then area in m² (3 decimals; below the name where there
+    /// is room).
     pub labels: Vec<Text>,
     /// Marked points (from the input).
     pub marks: Vec<PointMark>,
@@ -152,7 +155,7 @@ pub struct PatternStats {
     pub area_mm2_total: f64,
     /// Total area inside the cut lines (mm²): the fabric in the pieces.
     pub cut_area_mm2_total: f64,
-    /// Labels (of seams and marks) that found no place clear of their piece's other texts,
+    /// Labels (areas, marks' and seams' labels) that found no place clear of their piece's other texts,
     /// marks, notches and grain arrow, inside its sewing line or in its seam allowance, at any
     /// height down to the smallest: on tiny pieces.
     pub labels_crowded: usize,
@@ -291,7 +294,10 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         // (tiny pieces), then inside at the smallest heights.
         let sizes = heights(th, MIN_TEXT_MM.min(th));
         let large = |h: &f64| *h >= 0.5 * th;
-        let band = heights(th.min(ALLOWANCE_TEXT_FIT * r), MIN_TEXT_MM.min(th));
+        // The allowance tier only where the allowance holds a text of the smallest height.
+        let floor = MIN_TEXT_MM.min(th);
+        let band =
+            if ALLOWANCE_TEXT_FIT * r >= floor { heights(th.min(ALLOWANCE_TEXT_FIT * r), floor) } else { Vec::new() };
         let seam_labels = p
             .seams
             .iter()
@@ -502,19 +508,22 @@ fn text_candidates(t: &Text, next_to: &Text, sew: &[P2], r: f64) -> Vec<(Text, R
         .collect();
     out.extend(by_distance(grid).into_iter().map(|q| (at(q), Region::Piece)));
     if r > 0.0 {
+        // Every two box heights along the sewing line by arc length, at most about
+        // BAND_SAMPLES in all (one per edge would make a fine outline's search quadratic).
         let n = sew.len();
-        let mut band = Vec::new();
-        // Every two box heights along the sewing line, at most about BAND_SAMPLES in all.
         let spacing = (4.0 * half[1]).max(perimeter(sew) / BAND_SAMPLES);
+        let mut band = Vec::new();
+        let mut next = 0.5 * spacing;
+        let mut walked = 0.0;
         for i in 0..n {
             let (a, e) = (sew[i], sew[(i + 1) % n]);
             let len = dist(a, e);
-            let out_normal = normalize([e[1] - a[1], a[0] - e[0]]);
-            let steps = (len / spacing).ceil().max(1.0) as usize;
-            for k in 0..steps {
-                let q = axpy(a, (k as f64 + 0.5) / steps as f64, [e[0] - a[0], e[1] - a[1]]);
-                band.push(axpy(q, 0.5 * r, out_normal));
+            while len > 0.0 && next <= walked + len {
+                let q = axpy(a, (next - walked) / len, sub(e, a));
+                band.push(axpy(q, 0.5 * r, right_normal(sub(e, a))));
+                next += spacing;
             }
+            walked += len;
         }
         out.extend(by_distance(band).into_iter().map(|q| (at(q), Region::Allowance)));
     }

@@ -180,8 +180,10 @@ pub fn check(args: &CheckArgs, progress: &Progress) -> Result<(), Failure> {
             }
         }
         match &prepared {
-            Ok(_) if let Some(why) = &inward => println!("  usable: no ({why})"),
-            Ok(_) => println!("  usable: yes"),
+            Ok(_) => match &inward {
+                Some(why) => println!("  usable: no ({why})"),
+                None => println!("  usable: yes"),
+            },
             Err(e) => {
                 let first = match e {
                     MeshError::Invalid { problems } => {

@@ -400,7 +400,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         }
         Ok(())
     })();
-    commit(&args.out, &staging, result)
+    commit(&args.out, &staging, until, result)
 }
 
 /// The staging directory of a run, inside the output directory.
@@ -409,18 +409,80 @@ const PARTIAL_DIR: &str = ".clothcast-partial";
 /// Where the files a failed run had written go, inside the output directory.
 pub const FAILED_DIR: &str = "failed-run";
 
-/// End a run: its files move from `staging` into `out` together when it succeeded (each
-/// replacing the former one by a rename), so that the output directory holds one run's
-/// complete set. When it failed, the files in `out` stay those of the last complete run, and
-/// what the failed run wrote (for the user to look at: the layout that could not be cut, say)
-/// goes to `out/failed-run/`, replacing that of an earlier failure; the error says so.
-fn commit(out: &Path, staging: &Path, result: Result<(), Failure>) -> Result<(), Failure> {
+/// The files a run up to `until` writes when every stage it runs produces its files
+/// (relative to the output directory; `summary.json` aside).
+fn stage_outputs(until: Until) -> Vec<String> {
+    let mut out = vec!["deformed.ply".to_string()];
+    if until >= Until::Field {
+        out.extend(["strain_raw.ply", "cross_field.ply"].map(String::from));
+    }
+    if until >= Until::Segmentation {
+        out.extend(["segmentation.ply", "seams.obj"].map(String::from));
+    }
+    if until >= Until::Patterns {
+        out.extend(clothcast_pattern::all_writers().iter().map(|w| format!("patterns/{}", w.file_name())));
+        out.push("patterns/flattened.obj".into());
+    }
+    if until >= Until::All {
+        out.push("cast.ply".into());
+    }
+    out
+}
+
+/// End a run: its files move from `staging` into `out` when it succeeded, each replacing the
+/// former one by a rename, `summary.json` last, after every destination was checked (a
+/// directory where a file goes, or the reverse, fails the run before anything moves); a file
+/// of the run's stages that this run did not write (the check's `cast.ply` when the check
+/// failed or is off) is removed, so that the output directory holds one run's set. When it
+/// failed, the files in `out` stay those of the last complete run, and what the failed run
+/// wrote (for the user to look at: the layout that could not be cut, say) goes to
+/// `out/failed-run/`, replacing that of an earlier failure; the error says so.
+fn commit(out: &Path, staging: &Path, until: Until, result: Result<(), Failure>) -> Result<(), Failure> {
     match result {
         Ok(()) => {
-            move_files(staging, out)
-                .and_then(|()| std::fs::remove_dir_all(staging))
-                .with_context(|| format!("cannot move the outputs from {} into {}", staging.display(), out.display()))
+            let mut files = Vec::new();
+            list_files(staging, Path::new(""), &mut files)
+                .with_context(|| format!("cannot list {}", staging.display()))
                 .internal()?;
+            // summary.json last: it names the others.
+            files.sort_by_key(|f| (f == Path::new("summary.json"), f.clone()));
+            for f in &files {
+                let dest = out.join(f);
+                let blocked = dest.symlink_metadata().is_ok_and(|m| m.is_dir())
+                    || f.ancestors()
+                        .skip(1)
+                        .filter(|a| !a.as_os_str().is_empty())
+                        .any(|a| out.join(a).symlink_metadata().is_ok_and(|m| !m.is_dir()));
+                if blocked {
+                    return Err(Failure::Input(anyhow::anyhow!(
+                        "cannot put {} in place: a directory or file of that name is in the way (the run's files are \
+                         in {})",
+                        dest.display(),
+                        staging.display()
+                    )));
+                }
+            }
+            for f in &files {
+                let dest = out.join(f);
+                if let Some(parent) = dest.parent() {
+                    std::fs::create_dir_all(parent)
+                        .with_context(|| format!("cannot create {}", parent.display()))
+                        .internal()?;
+                }
+                std::fs::rename(staging.join(f), &dest)
+                    .with_context(|| format!("cannot move {} into {}", f.display(), out.display()))
+                    .internal()?;
+            }
+            for stale in stage_outputs(until) {
+                let path = out.join(&stale);
+                if !files.iter().any(|f| f == Path::new(&stale))
+                    && path.is_file()
+                    && let Err(e) = std::fs::remove_file(&path)
+                {
+                    tracing::warn!("{} is from an earlier run and could not be removed: {e}", path.display());
+                }
+            }
+            let _ = std::fs::remove_dir_all(staging);
             Ok(())
         }
         Err(e) => {
@@ -431,8 +493,10 @@ fn commit(out: &Path, staging: &Path, result: Result<(), Failure>) -> Result<(),
             }
             let failed = out.join(FAILED_DIR);
             let kept = (|| {
-                if failed.exists() {
-                    std::fs::remove_dir_all(&failed)?;
+                match failed.symlink_metadata() {
+                    Ok(m) if m.is_dir() => std::fs::remove_dir_all(&failed)?,
+                    Ok(_) => std::fs::remove_file(&failed)?,
+                    Err(_) => {}
                 }
                 std::fs::rename(staging, &failed)
             })();
@@ -453,16 +517,15 @@ fn commit(out: &Path, staging: &Path, result: Result<(), Failure>) -> Result<(),
     }
 }
 
-/// Move every file under `from` to the same place under `to` (directories created as needed).
-fn move_files(from: &Path, to: &Path) -> std::io::Result<()> {
-    for entry in std::fs::read_dir(from)? {
+/// The files under `dir` (recursively), as paths relative to it prefixed by `prefix`.
+fn list_files(dir: &Path, prefix: &Path, out: &mut Vec<std::path::PathBuf>) -> std::io::Result<()> {
+    for entry in std::fs::read_dir(dir)? {
         let entry = entry?;
-        let dest = to.join(entry.file_name());
+        let rel = prefix.join(entry.file_name());
         if entry.file_type()?.is_dir() {
-            std::fs::create_dir_all(&dest)?;
-            move_files(&entry.path(), &dest)?;
+            list_files(&entry.path(), &rel, out)?;
         } else {
-            std::fs::rename(entry.path(), &dest)?;
+            out.push(rel);
         }
     }
     Ok(())
