@@ -385,7 +385,7 @@ impl<'de> Deserialize<'de> for Up {
             Raw::Vector(v) => {
                 let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
                 if !(n > 0.0 && n.is_finite()) {
-                    return Err(serde::de::Error::custom("the up vector must be finite and non-zero"));
+                    return Err(serde::de::Error::custom("the up vector's length must be a finite, non-zero number"));
                 }
                 Ok(Up(v))
             }
@@ -705,12 +705,7 @@ impl Config {
         }
         let nu = self.material.poisson_ratio;
         if !(nu > -1.0 && nu < 1.0) {
-            return Err(err(
-                "material",
-                "poisson_ratio",
-                nu.to_string(),
-                "must lie in (-1, 1) for a plane-stress membrane",
-            ));
+            return Err(err("material", "poisson_ratio", show(nu), "must lie in (-1, 1) for a plane-stress membrane"));
         }
         non_negative("material", "areal_density", self.material.areal_density)?;
         at_most("material", "areal_density", self.material.areal_density, 100.0, "kg/m²: fabrics weigh 0.1–1")?;
@@ -738,12 +733,17 @@ impl Config {
                     "supports",
                     "normal",
                     format!("{:?} (support {i})", s.normal),
-                    "must be finite and non-zero",
+                    "must be finite with a finite, non-zero length",
                 ));
             }
         }
-        if !(self.solver.tolerance > 0.0 && self.solver.tolerance < 1.0) {
-            return Err(err("solver", "tolerance", self.solver.tolerance.to_string(), "must lie in (0, 1)"));
+        if !(self.solver.tolerance >= MIN_TOLERANCE && self.solver.tolerance < 1.0) {
+            return Err(err(
+                "solver",
+                "tolerance",
+                show(self.solver.tolerance),
+                "must lie in [1e-12, 1): below 1e-12 the residual is round-off (the built-in example stops at 1.7e-12)",
+            ));
         }
         if self.solver.max_iterations == 0 {
             return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
@@ -758,14 +758,14 @@ impl Config {
         }
         let f = &self.field;
         if !(0.0..=1.0).contains(&f.anisotropy_threshold) {
-            return Err(err("field", "anisotropy_threshold", f.anisotropy_threshold.to_string(), "must lie in [0, 1]"));
+            return Err(err("field", "anisotropy_threshold", show(f.anisotropy_threshold), "must lie in [0, 1]"));
         }
         non_negative("field", "alpha", f.alpha)?;
         if !(0.0..=1.0).contains(&f.relax_radius) {
             return Err(err(
                 "field",
                 "relax_radius",
-                f.relax_radius.to_string(),
+                show(f.relax_radius),
                 "must lie in [0, 1] (a fraction of the bounding-box diagonal)",
             ));
         }
@@ -773,7 +773,7 @@ impl Config {
         let l = &self.layout;
         non_negative("layout", "drift_penalty", l.drift_penalty)?;
         if !(l.max_deviation >= 0.1 && l.max_deviation <= 90.0) {
-            return Err(err("layout", "max_deviation", l.max_deviation.to_string(), "must lie in [0.1, 90] degrees"));
+            return Err(err("layout", "max_deviation", show(l.max_deviation), "must lie in [0.1, 90] degrees"));
         }
         non_negative("layout", "capture_radius", l.capture_radius)?;
         non_negative("layout", "pin_spacing", l.pin_spacing)?;
@@ -781,15 +781,15 @@ impl Config {
             return Err(err(
                 "layout",
                 "max_developability",
-                l.max_developability.to_string(),
+                show(l.max_developability),
                 "must be positive (inf: never split)",
             ));
         }
         if !(0.0..0.5).contains(&l.min_patch_fraction) {
-            return Err(err("layout", "min_patch_fraction", l.min_patch_fraction.to_string(), "must lie in [0, 0.5)"));
+            return Err(err("layout", "min_patch_fraction", show(l.min_patch_fraction), "must lie in [0, 0.5)"));
         }
         if !(0.0..=0.5).contains(&l.snap) {
-            return Err(err("layout", "snap", l.snap.to_string(), "must lie in [0, 0.5]"));
+            return Err(err("layout", "snap", show(l.snap), "must lie in [0, 0.5]"));
         }
         let p = &self.pattern;
         non_negative("pattern", "seam_allowance_mm", p.seam_allowance_mm)?;
@@ -811,13 +811,13 @@ impl Config {
         at_most("pattern", "piece_gap_mm", p.piece_gap_mm, p.fabric_width_mm, "mm: the roll's width")?;
         positive("pattern", "text_height_mm", p.text_height_mm)?;
         if !(p.max_qc_mean >= 1.0) {
-            return Err(err("pattern", "max_qc_mean", p.max_qc_mean.to_string(), "must be at least 1 (inf: no limit)"));
+            return Err(err("pattern", "max_qc_mean", show(p.max_qc_mean), "must be at least 1 (inf: no limit)"));
         }
         if !(p.max_area_spread >= 1.0) {
             return Err(err(
                 "pattern",
                 "max_area_spread",
-                p.max_area_spread.to_string(),
+                show(p.max_area_spread),
                 "must be at least 1 (inf: no limit)",
             ));
         }
@@ -829,20 +829,31 @@ impl Config {
             positive("validation", "weft_stiffness", k)?;
         }
         for (key, k) in [("warp_stiffness", v.warp_stiffness), ("weft_stiffness", v.weft_stiffness)] {
-            if let Some(k) = k {
-                at_most("validation", key, k, MODULUS_RANGE.1, "N/m")?;
+            if let Some(k) = k
+                && !(MODULUS_RANGE.0..=MODULUS_RANGE.1).contains(&k)
+            {
+                return Err(err(
+                    "validation",
+                    key,
+                    show(k),
+                    &format!("must lie in [{}, {}] N/m", show(MODULUS_RANGE.0), show(MODULUS_RANGE.1)),
+                ));
             }
         }
         positive("validation", "shear_ratio", v.shear_ratio)?;
+        at_most("validation", "shear_ratio", v.shear_ratio, 10.0, "the shear modulus over the yarns' mean stiffness")?;
+        if let Some(k) = v.fabric_scale
+            && !(1e-6..=1e6).contains(&k)
+        {
+            return Err(err("validation", "fabric_scale", show(k), "must lie in [1e-6, 1e6]"));
+        }
+        if let Some(k) = v.seam_stiffness {
+            at_most("validation", "seam_stiffness", k, MODULUS_RANGE.1, "N")?;
+        }
         if let Some(k) = v.fabric_scale {
             positive("validation", "fabric_scale", k)?;
             if v.fabric.is_none() {
-                return Err(err(
-                    "validation",
-                    "fabric_scale",
-                    k.to_string(),
-                    "scales a measured fabric: set fabric too",
-                ));
+                return Err(err("validation", "fabric_scale", show(k), "scales a measured fabric: set fabric too"));
             }
         }
         if let Some(k) = v.seam_stiffness {
@@ -861,6 +872,10 @@ impl Config {
     }
 }
 
+/// The smallest `[solver] tolerance` accepted: below it the relative residual is the
+/// assembly's round-off, which a solve cannot get under.
+const MIN_TOLERANCE: f64 = 1e-12;
+
 /// A number as a user reads it: plain, or in exponent form when very large or small (1e300
 /// rather than its 301 digits).
 fn show(v: f64) -> String {
@@ -878,7 +893,7 @@ fn lossy_path<S: serde::Serializer>(path: &Option<PathBuf>, s: S) -> Result<S::O
 
 /// The thickness-integrated Young's moduli accepted (N/m): from a film far softer than any
 /// fabric to a steel sheet a few millimetres thick.
-const MODULUS_RANGE: (f64, f64) = (1.0, 1e9);
+pub(crate) const MODULUS_RANGE: (f64, f64) = (1.0, 1e9);
 
 /// 1-based line of `key = ...` inside `[section]` (or `[[section]]`) of a TOML text.
 fn locate_key(text: &str, section: &str, key: &str) -> Option<usize> {

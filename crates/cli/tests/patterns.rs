@@ -337,6 +337,9 @@ fn a_failed_run_leaves_the_last_complete_run_whole() {
     }
     assert!(out.join("failed-run/segmentation.ply").exists());
     assert!(!out.join("patterns").exists() && !out.join(".clothcast-partial").exists());
+    // A complete run supersedes the failed one's files.
+    run_configured("segment", &out, "", &["--height", "0.3"], 0);
+    assert!(!out.join("failed-run").exists());
 }
 
 /// A complete run replaces the files of its stages that it did not write: the check's

@@ -170,6 +170,9 @@ fn scenario_errors_exit_2() {
         ("[material]\nyoungs_modulus = 1e-300\n", "material.youngs_modulus"),
         ("[pattern]\npiece_gap_mm = 1e15\n", "pattern.piece_gap_mm"),
         ("[[supports]]\npoint = [nan, 0.0, -0.01]\nnormal = [0.0, 0.0, 1.0]\n", "supports.point"),
+        ("[solver]\ntolerance = 1e-300\n", "solver.tolerance"),
+        ("[validation]\nshear_ratio = 1e300\n", "validation.shear_ratio"),
+        ("[validation]\nwarp_stiffness = 1e-300\n", "validation.warp_stiffness"),
     ] {
         let t = run_configured("simulate", &out, toml, &[], 2);
         assert_mentions(&t, key);

@@ -433,87 +433,103 @@ fn stage_outputs(until: Until) -> Vec<String> {
 /// former one by a rename, `summary.json` last, after every destination was checked (a
 /// directory where a file goes, or the reverse, fails the run before anything moves); a file
 /// of the run's stages that this run did not write (the check's `cast.ply` when the check
-/// failed or is off) is removed, so that the output directory holds one run's set. When it
-/// failed, the files in `out` stay those of the last complete run, and what the failed run
-/// wrote (for the user to look at: the layout that could not be cut, say) goes to
-/// `out/failed-run/`, replacing that of an earlier failure; the error says so.
+/// failed or is off) is removed, and so is an earlier failed run's `failed-run/`, so that the
+/// output directory holds one run's set. When it failed, the files in `out` stay those of the
+/// last complete run, and what the failed run wrote (for the user to look at: the layout that
+/// could not be cut, say) goes to `out/failed-run/`, replacing that of an earlier failure; the
+/// error says so.
 fn commit(out: &Path, staging: &Path, until: Until, result: Result<(), Failure>) -> Result<(), Failure> {
-    match result {
-        Ok(()) => {
-            let mut files = Vec::new();
-            list_files(staging, Path::new(""), &mut files)
-                .with_context(|| format!("cannot list {}", staging.display()))
+    let files = match result.and_then(|()| files_to_move(out, staging)) {
+        Ok(files) => files,
+        Err(e) => return Err(keep_failed(out, staging, e)),
+    };
+    for f in &files {
+        let dest = out.join(f);
+        if let Some(parent) = dest.parent() {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("cannot create {}", parent.display()))
                 .internal()?;
-            // summary.json last: it names the others.
-            files.sort_by_key(|f| (f == Path::new("summary.json"), f.clone()));
-            for f in &files {
-                let dest = out.join(f);
-                let blocked = dest.symlink_metadata().is_ok_and(|m| m.is_dir())
-                    || f.ancestors()
-                        .skip(1)
-                        .filter(|a| !a.as_os_str().is_empty())
-                        .any(|a| out.join(a).symlink_metadata().is_ok_and(|m| !m.is_dir()));
-                if blocked {
-                    return Err(Failure::Input(anyhow::anyhow!(
-                        "cannot put {} in place: a directory or file of that name is in the way (the run's files are \
-                         in {})",
-                        dest.display(),
-                        staging.display()
-                    )));
-                }
-            }
-            for f in &files {
-                let dest = out.join(f);
-                if let Some(parent) = dest.parent() {
-                    std::fs::create_dir_all(parent)
-                        .with_context(|| format!("cannot create {}", parent.display()))
-                        .internal()?;
-                }
-                std::fs::rename(staging.join(f), &dest)
-                    .with_context(|| format!("cannot move {} into {}", f.display(), out.display()))
-                    .internal()?;
-            }
-            for stale in stage_outputs(until) {
-                let path = out.join(&stale);
-                if !files.iter().any(|f| f == Path::new(&stale))
-                    && path.is_file()
-                    && let Err(e) = std::fs::remove_file(&path)
-                {
-                    tracing::warn!("{} is from an earlier run and could not be removed: {e}", path.display());
-                }
-            }
-            let _ = std::fs::remove_dir_all(staging);
-            Ok(())
         }
-        Err(e) => {
-            let wrote_any = std::fs::read_dir(staging).map(|mut d| d.next().is_some()).unwrap_or(false);
-            if !wrote_any {
-                let _ = std::fs::remove_dir_all(staging);
-                return Err(e);
-            }
-            let failed = out.join(FAILED_DIR);
-            let kept = (|| {
-                match failed.symlink_metadata() {
-                    Ok(m) if m.is_dir() => std::fs::remove_dir_all(&failed)?,
-                    Ok(_) => std::fs::remove_file(&failed)?,
-                    Err(_) => {}
-                }
-                std::fs::rename(staging, &failed)
-            })();
-            let note = match kept {
-                Ok(()) => format!(
-                    "the files this run wrote before it failed are in {}; those in {} are the last complete run's",
-                    failed.display(),
-                    out.display()
-                ),
-                Err(io) => format!("the files this run wrote before it failed are in {} ({io})", staging.display()),
-            };
-            Err(match e {
-                Failure::Input(e) => Failure::Input(anyhow::anyhow!("{e:#} ({note})")),
-                Failure::Internal(e) => Failure::Internal(anyhow::anyhow!("{e:#} ({note})")),
-                other => other,
-            })
+        std::fs::rename(staging.join(f), &dest)
+            .with_context(|| format!("cannot move {} into {}", f.display(), out.display()))
+            .internal()?;
+    }
+    // A complete run supersedes what an earlier one left: its stages' files it did not write,
+    // and a failed run's files.
+    for stale in stage_outputs(until) {
+        let path = out.join(&stale);
+        if !files.iter().any(|f| f == Path::new(&stale))
+            && path.is_file()
+            && let Err(e) = std::fs::remove_file(&path)
+        {
+            tracing::warn!("{} is from an earlier run and could not be removed: {e}", path.display());
         }
+    }
+    let failed = out.join(FAILED_DIR);
+    if failed.symlink_metadata().is_ok_and(|m| m.is_dir())
+        && let Err(e) = std::fs::remove_dir_all(&failed)
+    {
+        tracing::warn!("{} is from an earlier failed run and could not be removed: {e}", failed.display());
+    }
+    let _ = std::fs::remove_dir_all(staging);
+    Ok(())
+}
+
+/// The files a complete run wrote (relative to `staging`), `summary.json` last (it names the
+/// others), once nothing is in the way of any of them in `out`.
+fn files_to_move(out: &Path, staging: &Path) -> Result<Vec<std::path::PathBuf>, Failure> {
+    let mut files = Vec::new();
+    list_files(staging, Path::new(""), &mut files)
+        .with_context(|| format!("cannot list {}", staging.display()))
+        .internal()?;
+    files.sort_by_key(|f| (f == Path::new("summary.json"), f.clone()));
+    for f in &files {
+        let dest = out.join(f);
+        let blocked = dest.symlink_metadata().is_ok_and(|m| m.is_dir())
+            || f.ancestors()
+                .skip(1)
+                .filter(|a| !a.as_os_str().is_empty())
+                .any(|a| out.join(a).symlink_metadata().is_ok_and(|m| !m.is_dir()));
+        if blocked {
+            return Err(Failure::Input(anyhow::anyhow!(
+                "cannot put {} in place: a directory or file of that name is in the way",
+                dest.display()
+            )));
+        }
+    }
+    Ok(files)
+}
+
+/// A failed run's end: what it wrote goes to `out/failed-run/` (replacing an earlier failed
+/// run's), and the error says where the files are.
+fn keep_failed(out: &Path, staging: &Path, e: Failure) -> Failure {
+    let wrote_any = std::fs::read_dir(staging).map(|mut d| d.next().is_some()).unwrap_or(false);
+    if !wrote_any {
+        let _ = std::fs::remove_dir_all(staging);
+        return e;
+    }
+    let failed = out.join(FAILED_DIR);
+    let kept = (|| {
+        match failed.symlink_metadata() {
+            Ok(m) if m.is_dir() => std::fs::remove_dir_all(&failed)?,
+            Ok(_) => std::fs::remove_file(&failed)?,
+            Err(_) => {}
+        }
+        std::fs::rename(staging, &failed)
+    })();
+    let complete = if out.join("summary.json").is_file() {
+        format!("those in {} are the last complete run's", out.display())
+    } else {
+        format!("no complete run is in {}", out.display())
+    };
+    let note = match kept {
+        Ok(()) => format!("the files this run wrote before it failed are in {}; {complete}", failed.display()),
+        Err(io) => format!("the files this run wrote before it failed are in {} ({io})", staging.display()),
+    };
+    match e {
+        Failure::Input(e) => Failure::Input(anyhow::anyhow!("{e:#} ({note})")),
+        Failure::Internal(e) => Failure::Internal(anyhow::anyhow!("{e:#} ({note})")),
+        other => other,
     }
 }
 

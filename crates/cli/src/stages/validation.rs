@@ -213,14 +213,42 @@ pub fn fabric(cfg: &Config) -> Result<(WovenFabric, String), Failure> {
         let measured = wor11_fabric(&text).map_err(named)?;
         let scale =
             v.fabric_scale.unwrap_or_else(|| cfg.material.youngs_modulus / (measured.warp * measured.weft).sqrt());
-        return Ok((measured.scaled(scale).map_err(named)?, name.clone()));
+        let fabric = measured.scaled(scale).map_err(named)?;
+        in_range(&fabric).map_err(named)?;
+        return Ok((fabric, name.clone()));
     }
     let warp = v.warp_stiffness.unwrap_or(cfg.material.youngs_modulus);
     let weft = v.weft_stiffness.unwrap_or(cfg.material.youngs_modulus);
     let mean = (warp * weft).sqrt();
     let f =
         WovenFabric::new(warp, weft, v.shear_ratio * mean).map_err(|e| Failure::Input(anyhow!("[validation]: {e}")))?;
+    in_range(&f)
+        .map_err(|e| Failure::Input(anyhow!("[validation] (warp_stiffness, weft_stiffness, shear_ratio): {e}")))?;
     Ok((f, "constants".into()))
+}
+
+/// The check's fabric refused where a stiffness (small-strain, stretched, or shear) lies
+/// outside the moduli accepted for `[material] youngs_modulus` (a scale or a file of 1e300
+/// made the check's residual NaN, one of 1e-300 let the yarns stretch by 1100%).
+fn in_range(f: &WovenFabric) -> Result<(), String> {
+    let (lo, hi) = crate::config::MODULUS_RANGE;
+    for (what, k) in [
+        ("warp stiffness", f.warp),
+        ("weft stiffness", f.weft),
+        ("stretched warp stiffness", f.warp_stretched),
+        ("stretched weft stiffness", f.weft_stretched),
+    ] {
+        if !(lo..=hi).contains(&k) {
+            return Err(format!("the fabric's {what} is {k:e} N/m: it must lie in [{lo:e}, {hi:e}] N/m"));
+        }
+    }
+    if !(f.shear <= hi && f.shear > 0.0) {
+        return Err(format!(
+            "the fabric's shear modulus is {:e} N/m: it must be positive, at most {hi:e} N/m",
+            f.shear
+        ));
+    }
+    Ok(())
 }
 
 /// Each segmented face's triangle on its pattern piece as the piece lies on the roll (metres,
