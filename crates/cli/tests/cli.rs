@@ -183,7 +183,12 @@ fn usage_errors_exit_2() {
 fn units_and_height_scale_the_mesh() {
     let dir = tmpdir("units");
     let sphere = data("closed/sphere.obj");
-    expect_exit(&run_stage("run", &dir, None, &[sphere.to_str().unwrap(), "--units", "cm"]), 0);
+    // In centimetres the sphere is 2 cm across: the default 5 cm band would clamp all of it (a
+    // scenario refused: nothing could move), so it hangs from a 5 mm band.
+    let t = expect_exit(&run_stage("simulate", &dir, None, &[sphere.to_str().unwrap(), "--units", "cm"]), 2);
+    assert_mentions(&t, "clamps all");
+    let cfg = write_config(&dir, "band.toml", "[suspension]\nband = 0.005\n");
+    expect_exit(&run_stage("run", &dir, Some(&cfg), &[sphere.to_str().unwrap(), "--units", "cm"]), 0);
     let s = summary(&dir);
     assert!((s["input"]["bbox_diagonal_m"].as_f64().unwrap() - 0.0346).abs() < 1e-3);
     expect_exit(&run_stage("run", &dir, None, &[sphere.to_str().unwrap(), "--height", "1.0", "--up", "+y"]), 0);

@@ -173,6 +173,7 @@ fn scenario_errors_exit_2() {
         ("[solver]\ntolerance = 1e-300\n", "solver.tolerance"),
         ("[validation]\nshear_ratio = 1e300\n", "validation.shear_ratio"),
         ("[validation]\nwarp_stiffness = 1e-300\n", "validation.warp_stiffness"),
+        ("[suspension]\nband = 1e300\n", "clamps all"),
     ] {
         let t = run_configured("simulate", &out, toml, &[], 2);
         assert_mentions(&t, key);

@@ -159,6 +159,15 @@ pub enum SimError {
         /// The face.
         face: FaceId,
     },
+    /// The suspension holds every vertex: nothing can move, and no strain is left to segment.
+    #[error(
+        "the suspension clamps all {vertices} vertices of the mold (e.g. a [suspension] band as tall as the mold): \
+         nothing can move; hold it by less"
+    )]
+    AllClamped {
+        /// Vertex count.
+        vertices: usize,
+    },
     /// Nothing loads the mold (no liquid, no head pressure, no self weight): its equilibrium
     /// is the target itself, and the solve's relative residual would have no scale.
     #[error(
@@ -452,6 +461,9 @@ fn simulate_with_rest(
         }
     }
     let constraints = suspension_constraints(mesh, &sc.suspension, &up)?;
+    if rest.is_none() && constraints.clamped_vertices() == mesh.n_vertices() {
+        return Err(SimError::AllClamped { vertices: mesh.n_vertices() });
+    }
     for (li, v) in free_rim(mesh, &constraints) {
         if let Some(hy) = &hydro {
             let d = hy.depth(&mesh.position(v));
