@@ -17,11 +17,8 @@
 //! candidates per label); no crate places labels inside a polygon.
 
 use crate::geom::{P2, add, axpy, dot, normalize, point_in_polygon, segment_inside, segments_intersect, sub};
-use crate::output::helvetica_width;
+use crate::output::{HELVETICA_CAP_HEIGHT, helvetica_width};
 use crate::pattern::Text;
-
-/// Helvetica's cap height per em (as the writers set the font size from the cap height).
-use crate::output::HELVETICA_CAP_HEIGHT;
 
 /// Margin around a text's box, in text heights.
 const PAD: f64 = 0.15;
@@ -58,7 +55,12 @@ impl LabelBox {
 
     /// A square of half side `half` centred on `c`.
     pub(crate) fn square(c: P2, half: f64) -> Self {
-        Self { centre: c, axis: [1.0, 0.0], half: [half, half] }
+        Self::rect(c, [half, half])
+    }
+
+    /// An axis-aligned rectangle of half extents `half` centred on `c`.
+    pub(crate) fn rect(c: P2, half: [f64; 2]) -> Self {
+        Self { centre: c, axis: [1.0, 0.0], half }
     }
 
     /// Half extents along and across its axis.
@@ -102,7 +104,7 @@ impl LabelBox {
     /// a side).
     pub(crate) fn inside(&self, poly: &[P2]) -> bool {
         let c = self.corners();
-        c.iter().all(|&p| point_in_polygon(p, poly)) && (0..4).all(|i| segment_inside(c[i], c[(i + 1) % 4], poly))
+        (0..4).all(|i| segment_inside(c[i], c[(i + 1) % 4], poly))
     }
 
     /// Whether the box and the simple polygon `poly` are disjoint: no corner inside it, no
@@ -322,7 +324,9 @@ mod tests {
         assert_eq!(pat.stats.labels_crowded, 0);
         for p in &pat.pieces {
             let texts: Vec<&Text> = p.labels.iter().chain(&p.seam_labels).chain(&p.mark_labels).collect();
-            assert_eq!(texts.len(), 2 + p.seam_labels.len() + p.mark_labels.len());
+            // Every labelled mark has its label, every seam side its own.
+            assert_eq!(p.mark_labels.len(), p.marks.iter().filter(|m| !m.label.is_empty()).count());
+            assert_eq!(p.seam_labels.len(), pieces.iter().find(|q| q.id == p.id).unwrap().seams.len());
             let boxes: Vec<LabelBox> = texts.iter().map(|t| LabelBox::of_text(t)).collect();
             for (i, b) in boxes.iter().enumerate() {
                 assert!(b.inside(&p.cut), "piece {}: {:?} off the fabric", p.name, texts[i]);

@@ -250,8 +250,9 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         // The text shrunk on a piece too small for it (the labels' stack is about 2.4 text
         // heights tall and wide: it then stays inside the sewing line), down to a legible floor.
         let th = th.min((dist_point_boundary(anchor, &p.outline) / TEXT_FIT).max(MIN_TEXT_MM.min(th)));
-        // The smaller texts (area, marks) no smaller than the floor either.
-        let small = |k: f64| (k * th).max(MIN_TEXT_MM.min(th));
+        // The smallest text on this piece; the smaller texts (area, marks) no smaller either.
+        let floor = MIN_TEXT_MM.min(th);
+        let small = |k: f64| (k * th).max(floor);
         let grain = grain_arrow(&p.outline, anchor, th);
         let name = Text { text: p.name.clone(), position: axpy(anchor, -0.9, [0.0, th]), height: th, angle_deg: 0.0 };
         // The name, the grain arrow, the marks' symbols and the notches hold their places; the
@@ -279,7 +280,7 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
             .iter()
             .filter(|m| !m.label.is_empty())
             .filter_map(|m| {
-                let here: Vec<Text> = heights(small(0.6), MIN_TEXT_MM.min(th))
+                let here: Vec<Text> = heights(small(0.6), floor)
                     .into_iter()
                     .flat_map(|h| mark_candidates(&m.label, m.position, s, h))
                     .collect();
@@ -292,10 +293,9 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
             .collect();
         // A seam label inside the piece at a good height first, then in the seam allowance
         // (tiny pieces), then inside at the smallest heights.
-        let sizes = heights(th, MIN_TEXT_MM.min(th));
+        let sizes = heights(th, floor);
         let large = |h: &f64| *h >= 0.5 * th;
         // The allowance tier only where the allowance holds a text of the smallest height.
-        let floor = MIN_TEXT_MM.min(th);
         let band =
             if ALLOWANCE_TEXT_FIT * r >= floor { heights(th.min(ALLOWANCE_TEXT_FIT * r), floor) } else { Vec::new() };
         let seam_labels = p
@@ -373,12 +373,9 @@ pub(crate) fn mark_size(th: f64) -> f64 {
 /// Where along a seam side its label is tried (arc-length fractions, the middle first).
 const SEAM_LABEL_AT: [f64; 7] = [0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8];
 
-/// How deep inside the piece a seam label's centre is tried, in text heights (the first is the
-/// default).
-const SEAM_LABEL_DEPTHS: [f64; 4] = [SEAM_LABEL_DEPTH, 1.6, 2.2, 0.9];
-
-/// A seam label's centre lies this many text heights inside the side.
-const SEAM_LABEL_DEPTH: f64 = 1.2;
+/// How deep inside the piece a seam label's centre is tried, in text heights (1.2, the
+/// first, as before the labels were placed).
+const SEAM_LABEL_DEPTHS: [f64; 4] = [1.2, 1.6, 2.2, 0.9];
 
 /// How far out of the side a seam label in the seam allowance is tried, in allowances (the
 /// middle of the band between the sewing and cut lines first).

@@ -117,14 +117,14 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         let sim = stages::simulation::run(&cfg, &input, progress)?;
         stages.simulation = Some(StageTime { seconds: sim.stats.seconds });
         stages::simulation::write_outputs(out, &input, &sim)?;
-        let mut written = vec!["deformed.ply"];
+        let mut written = stages::simulation::FILES.to_vec();
 
         // Stage 2: the cross field.
         let field = if until >= Until::Field {
             let f = stages::field::run(&cfg, &input, &sim, progress)?;
             stages.field = Some(StageTime { seconds: f.stats.seconds });
             stages::field::write_outputs(out, &input, &f)?;
-            written.extend(["strain_raw.ply", "cross_field.ply"]);
+            written.extend(stages::field::FILES);
             Some(f)
         } else {
             None
@@ -324,7 +324,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
         if let Some(seg) = &segmentation {
             stages.segmentation = Some(StageTime { seconds: layout_seconds });
             stages::segmentation::write_outputs(out, &input, seg)?;
-            written.extend(["segmentation.ply", "seams.obj"]);
+            written.extend(stages::segmentation::FILES);
         }
         let patterns = match (segmentation.as_ref(), patterns) {
             (Some(seg), Some(mut p)) => {
@@ -351,7 +351,7 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                 match stages::validation::run(&cfg, fabric, &input, &sim, f, seg, p, progress) {
                     Ok(v) => {
                         stages::validation::write_outputs(out, &input, seg, &v)?;
-                        written.push("cast.ply");
+                        written.extend(stages::validation::FILES);
                         stages.validation = Some(StageTime { seconds: v.summary.seconds });
                         Some(ValidationOutcome::Done(Box::new(v.summary)))
                     }
@@ -412,19 +412,18 @@ pub const FAILED_DIR: &str = "failed-run";
 /// The files a run up to `until` writes when every stage it runs produces its files
 /// (relative to the output directory; `summary.json` aside).
 fn stage_outputs(until: Until) -> Vec<String> {
-    let mut out = vec!["deformed.ply".to_string()];
+    let mut out: Vec<String> = stages::simulation::FILES.map(String::from).to_vec();
     if until >= Until::Field {
-        out.extend(["strain_raw.ply", "cross_field.ply"].map(String::from));
+        out.extend(stages::field::FILES.map(String::from));
     }
     if until >= Until::Segmentation {
-        out.extend(["segmentation.ply", "seams.obj"].map(String::from));
+        out.extend(stages::segmentation::FILES.map(String::from));
     }
     if until >= Until::Patterns {
-        out.extend(clothcast_pattern::all_writers().iter().map(|w| format!("patterns/{}", w.file_name())));
-        out.push("patterns/flattened.obj".into());
+        out.extend(stages::patterns::files());
     }
     if until >= Until::All {
-        out.push("cast.ply".into());
+        out.extend(stages::validation::FILES.map(String::from));
     }
     out
 }

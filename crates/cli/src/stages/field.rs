@@ -40,6 +40,9 @@ pub fn run(cfg: &Config, input: &Input, sim: &SimResult, progress: &Progress) ->
     Ok(r)
 }
 
+/// The files this stage writes in the output directory.
+pub const FILES: [&str; 2] = ["strain_raw.ply", "cross_field.ply"];
+
 /// Write `strain_raw.ply` (raw directions) and `cross_field.ply` (final field, singularities).
 pub fn write_outputs(out: &Path, input: &Input, r: &FieldResult) -> Result<(), Failure> {
     let m = &input.mesh;
@@ -52,7 +55,7 @@ pub fn write_outputs(out: &Path, input: &Input, r: &FieldResult) -> Result<(), F
     fattr.push(Attribute::f64("anisotropy", r.raw.anisotropy.as_slice().to_vec()));
     fattr.push(Attribute::u8("anisotropic", r.anisotropic.iter().map(|&a| a as u8).collect()));
     let comment = "clothcast raw field on the target: d1 = unit major direction per face; lambda1 >= lambda2 (squared principal stretches for source strain, principal curvatures for source curvature); anisotropy in [0, 1]";
-    let path = out.join("strain_raw.ply");
+    let path = out.join(FILES[0]);
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, comment, &pos, &tris, &[], &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()?;
@@ -62,7 +65,7 @@ pub fn write_outputs(out: &Path, input: &Input, r: &FieldResult) -> Result<(), F
     let index = r.field.indices(m, &r.connection);
     let vattr = [Attribute::i32("singularity", index.as_slice().to_vec())];
     let comment = "clothcast cross field (smoothed and relaxed): d1 = one unit arm of the cross per face (the others: -d1, n x d1, -n x d1); singularity = vertex index in quarter turns (+1 valence 3, -1 valence 5, -2 valence 6)";
-    let path = out.join("cross_field.ply");
+    let path = out.join(FILES[1]);
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, comment, &pos, &tris, &vattr, &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()

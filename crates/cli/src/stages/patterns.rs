@@ -35,8 +35,8 @@ pub struct PatternsSummary {
     pub utilisation: f64,
     /// Sum of the pieces' sew-line areas (mm²), to compare with the target's area.
     pub pieces_area_mm2: f64,
-    /// Labels (of seams and marks) that found no place clear of the piece's other texts and
-    /// marks, inside its sewing line or in its seam allowance (on tiny pieces).
+    /// Labels (areas, marks' and seams' labels) that found no place clear of the piece's other
+    /// texts and marks, inside its sewing line or in its seam allowance (on tiny pieces).
     pub labels_crowded: usize,
     /// The files written (relative to the output directory).
     pub files: Vec<String>,
@@ -214,10 +214,8 @@ pub fn run(
                 message: format!("{e}{more}; set [pattern] fabric_width_mm wider or allow_weft_swap = true"),
                 pieces: too_wide.iter().map(|&(piece, ratio)| (piece as u32, ratio)).collect(),
             }))
-        } else if e.is_option_error() {
-            Failure::Input(anyhow::anyhow!("building the patterns: {e} (see the [pattern] section)"))
         } else {
-            Failure::Internal(anyhow::anyhow!("building the patterns: {e}"))
+            pattern_failure("building the patterns", &e)
         }
     })?;
     drop(stage);
@@ -309,31 +307,47 @@ fn marks_per_piece(
     Ok(out)
 }
 
+/// A pattern error as the run's failure: the user's, pointing to `[pattern]`, where the options
+/// are to blame ([`clothcast_pattern::PatternError::is_option_error`]), else internal.
+fn pattern_failure(doing: &str, e: &clothcast_pattern::PatternError) -> Failure {
+    if e.is_option_error() {
+        Failure::Input(anyhow::anyhow!("{doing}: {e} (see the [pattern] section)"))
+    } else {
+        Failure::Internal(anyhow::anyhow!("{doing}: {e}"))
+    }
+}
+
+/// The directory of the pattern files, in the output directory.
+const DIR: &str = "patterns";
+
+/// The flattened pieces as a mesh, in [`DIR`].
+const FLATTENED: &str = "flattened.obj";
+
+/// The files this stage writes (relative to the output directory): the writers' and
+/// `flattened.obj`, in `patterns/`.
+pub fn files() -> Vec<String> {
+    let mut files: Vec<String> = all_writers().iter().map(|w| format!("{DIR}/{}", w.file_name())).collect();
+    files.push(format!("{DIR}/{FLATTENED}"));
+    files
+}
+
 /// Write the pattern files into `out/patterns/` and `flattened.obj`; returns the file names
-/// (relative to `out`).
+/// (relative to `out`, [`files`]).
 pub fn write_outputs(
     out: &Path,
     input: &Input,
     seg: &Segmentation,
     r: &PatternsResult,
 ) -> Result<Vec<String>, Failure> {
-    let dir = out.join("patterns");
+    let dir = out.join(DIR);
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display())).internal()?;
-    let mut files = Vec::new();
     for w in all_writers() {
         let path = dir.join(w.file_name());
         let mut buf: Vec<u8> = Vec::new();
-        w.write(&r.pattern, &mut buf).map_err(|e| {
-            if e.is_option_error() {
-                Failure::Input(anyhow::anyhow!("writing {}: {e} (see the [pattern] section)", w.name()))
-            } else {
-                Failure::Internal(anyhow::anyhow!("writing {}: {e}", w.name()))
-            }
-        })?;
+        w.write(&r.pattern, &mut buf).map_err(|e| pattern_failure(&format!("writing {}", w.name()), &e))?;
         write_atomic(&path, |f| std::io::Write::write_all(f, &buf))
             .with_context(|| format!("cannot write {}", path.display()))
             .internal()?;
-        files.push(format!("patterns/{}", w.file_name()));
     }
     // flattened.obj: the segmented mesh (input units) with per-corner UVs in millimetres as laid
     // out on the roll, one group per patch.
@@ -357,15 +371,14 @@ pub fn write_outputs(
         }
         groups.push((format!("patch_{}", p.patch), ids));
     }
-    let path = dir.join("flattened.obj");
+    let path = dir.join(FLATTENED);
     let header = "clothcast flattened patches: v = segmented target (input units), vt = piece coordinates in millimetres as laid out on the fabric roll (x along the roll = warp), one group per patch";
     write_atomic(&path, |w| {
         write_obj(w, header, &positions, &faces, Some(ObjUvs { uvs: &uvs, face_uvs: &face_uvs }), Some(&groups))
     })
     .with_context(|| format!("cannot write {}", path.display()))
     .internal()?;
-    files.push("patterns/flattened.obj".into());
-    Ok(files)
+    Ok(files())
 }
 
 /// A piece whose flattening shrank some triangle below this share of its area on the target

@@ -100,6 +100,9 @@ pub fn run(
     Ok(seg)
 }
 
+/// The files this stage writes in the output directory.
+pub const FILES: [&str; 2] = ["segmentation.ply", "seams.obj"];
+
 /// Write `segmentation.ply` (remeshed target, per-face `patch`) and `seams.obj` (one `o`
 /// object per seam with `l` records).
 pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation) -> Result<(), Failure> {
@@ -110,12 +113,12 @@ pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation) -> Result<()
     let parent: Vec<i32> = seg.face_parent.iter().map(|f| input.face_to_input[f.idx()] as i32).collect();
     let fattr = [Attribute::i32("patch", patch), Attribute::i32("parent_face", parent)];
     let comment = "clothcast segmentation: the target remeshed along the seams; patch = patch id per face, parent_face = face of the input mesh containing it";
-    let path = out.join("segmentation.ply");
+    let path = out.join(FILES[0]);
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, comment, &pos, &tris, &[], &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()?;
 
-    let path = out.join("seams.obj");
+    let path = out.join(FILES[1]);
     write_atomic(&path, |w| {
         writeln!(w, "# clothcast seams: one object per seam, named seam_<id>_<patch a>_<patch b>,")?;
         writeln!(w, "# a polyline of the segmentation.ply vertices (same numbering, same units).")?;

@@ -179,6 +179,9 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
     Ok(result)
 }
 
+/// The files this stage writes in the output directory.
+pub const FILES: [&str; 1] = ["deformed.ply"];
+
 /// Write `deformed.ply`: equilibrium positions in the input's units (same vertex and face
 /// order as the target), per-vertex displacement (m) and per-face λ1, λ2.
 pub fn write_outputs(out: &Path, input: &Input, result: &SimResult) -> Result<(), Failure> {
@@ -196,7 +199,7 @@ pub fn write_outputs(out: &Path, input: &Input, result: &SimResult) -> Result<()
         "clothcast deformed mold (equilibrium under infill)\ncoordinates in input units ({} m per unit); displacement in metres\nlambda1 >= lambda2: squared principal stretches per face",
         input.to_metres
     );
-    let path = out.join("deformed.ply");
+    let path = out.join(FILES[0]);
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, &comment, &pos, &tris, &vattr, &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()

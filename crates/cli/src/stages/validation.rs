@@ -567,6 +567,9 @@ pub fn run(
     })
 }
 
+/// The files this stage writes in the output directory.
+pub const FILES: [&str; 1] = ["cast.ply"];
+
 /// Write `cast.ply`: the cast on the segmented mesh (input units), per vertex the signed
 /// deviation from the target (m), per face the patch, the weave's shear (degrees) and the
 /// stretch along warp and weft.
@@ -587,7 +590,7 @@ pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation, r: &Validati
          departure from 90 degrees; warp_stretch, weft_stretch: stretch along each yarn",
         input.to_metres
     );
-    let path = out.join("cast.ply");
+    let path = out.join(FILES[0]);
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, &comment, &pos, &tris, &vattr, &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()

@@ -27,7 +27,8 @@ use pdf_writer::{Content, Finish, Name, Pdf, Rect, Ref, Str};
 
 use super::{HELVETICA_CAP_HEIGHT, Item, Layer, PatternWriter, Prim, helvetica_width, piece_items};
 use crate::error::PatternError;
-use crate::geom::{BBox, P2, point_in_polygon, segments_intersect};
+use crate::geom::{BBox, P2};
+use crate::labels::LabelBox;
 use crate::pattern::{Pattern, Text};
 
 /// Points per millimetre.
@@ -66,7 +67,7 @@ pub struct PdfWriter {
 
 /// Rows and columns of the A4 tiling of a roll layout `length × width` mm.
 pub fn a4_tile_grid(length_mm: f64, width_mm: f64) -> (usize, usize) {
-    let win = [A4_MM[0] - 2.0 * TILE_MARGIN_MM, A4_MM[1] - 2.0 * TILE_MARGIN_MM];
+    let (win, _) = tile_window_and_step();
     let count = |extent: f64, w: f64| {
         // `as usize` saturates: absurd layouts give huge counts, never a panic.
         if extent <= w { 1 } else { 1 + ((extent - w) / (w - TILE_OVERLAP_MM) - 1e-9).ceil() as usize }
@@ -83,7 +84,7 @@ pub fn a4_tiles_used(pattern: &Pattern) -> Vec<(usize, usize)> {
     if rows.saturating_mul(cols) > MAX_TILES {
         return Vec::new(); // refused by the writer (PatternError::TooManyPages)
     }
-    let (win, step) = tile_window_and_step();
+    let (win, _) = tile_window_and_step();
     let cuts: Vec<(Vec<P2>, BBox)> = pattern
         .pieces
         .iter()
@@ -96,21 +97,10 @@ pub fn a4_tiles_used(pattern: &Pattern) -> Vec<(usize, usize)> {
     let mut used = Vec::new();
     for r in 0..rows {
         for col in 0..cols {
-            let lo = [col as f64 * step[0], wid - r as f64 * step[1] - win[1]];
-            let hi = [lo[0] + win[0], lo[1] + win[1]];
-            let window = BBox { min: lo, max: hi };
-            let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
-            let inside = |q: P2| q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1];
-            let shows = cuts.iter().any(|(c, b)| {
-                b.intersects(&window)
-                    && (c.iter().any(|&q| inside(q))
-                        || point_in_polygon(corners[0], c)
-                        || (0..c.len()).any(|i| {
-                            let (a, e) = (c[i], c[(i + 1) % c.len()]);
-                            (0..4).any(|k| segments_intersect(a, e, corners[k], corners[(k + 1) % 4]))
-                        }))
-            });
-            if shows {
+            let lo = tile_origin(r, col, wid);
+            let window = BBox { min: lo, max: [lo[0] + win[0], lo[1] + win[1]] };
+            let frame = LabelBox::rect([lo[0] + 0.5 * win[0], lo[1] + 0.5 * win[1]], [0.5 * win[0], 0.5 * win[1]]);
+            if cuts.iter().any(|(c, b)| b.intersects(&window) && !frame.outside(c)) {
                 used.push((r, col));
             }
         }
@@ -122,6 +112,13 @@ pub fn a4_tiles_used(pattern: &Pattern) -> Vec<(usize, usize)> {
 fn tile_window_and_step() -> ([f64; 2], [f64; 2]) {
     let win = [A4_MM[0] - 2.0 * TILE_MARGIN_MM, A4_MM[1] - 2.0 * TILE_MARGIN_MM];
     (win, [win[0] - TILE_OVERLAP_MM, win[1] - TILE_OVERLAP_MM])
+}
+
+/// The roll coordinates of the lower-left corner of the window of tile (`row`, `col`), on a
+/// roll `width` mm wide (row 0 at its top edge).
+fn tile_origin(row: usize, col: usize, width: f64) -> P2 {
+    let (win, step) = tile_window_and_step();
+    [col as f64 * step[0], width - row as f64 * step[1] - win[1]]
 }
 
 /// Page size (mm) of a piece in [`PdfMode::Pieces`].
@@ -349,15 +346,14 @@ fn render_tiles(pattern: &Pattern) -> Result<Vec<u8>, PatternError> {
     xo.finish();
 
     let m = TILE_MARGIN_MM;
-    let (win, step) = tile_window_and_step();
+    let (win, _) = tile_window_and_step();
     let k = PT_PER_MM;
     // Only the tiles that show a piece are printed; each keeps its row and column label.
     let used = a4_tiles_used(pattern);
     let mut kids = Vec::with_capacity(used.len());
     for (i, &(r, col)) in used.iter().enumerate() {
         let (page_id, content_id) = (Ref::new(5 + 2 * i as i32), Ref::new(6 + 2 * i as i32));
-        // Roll coordinates of the window's lower-left corner.
-        let origin = [col as f64 * step[0], wid - r as f64 * step[1] - win[1]];
+        let origin = tile_origin(r, col, wid);
         let mut c = Content::new();
         c.save_state();
         c.rect(f(k * m), f(k * m), f(k * win[0]), f(k * win[1]));
