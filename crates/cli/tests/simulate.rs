@@ -189,11 +189,15 @@ fn scenario_errors_exit_2() {
 #[test]
 fn supports_and_explicit_vertices() {
     let out = tmpdir("sup");
-    // A floor 2 mm below the example's tip (its tip rises: no contact, but the support is
-    // parsed, checked and reported), then six explicit clamped vertices with a partial fill.
-    run_configured("simulate", &out, "[[supports]]\npoint = [0.0, 0.0, -0.002]\nnormal = [0.0, 0.0, 1.0]\n", &[], 0);
+    // A floor 2 cm above the example's lowest point, its tip (the next vertices are 3.5 cm
+    // up): the tip starts on the floor and the mold rests on it. Then six explicit clamped
+    // vertices with a partial fill.
+    run_configured("simulate", &out, "[[supports]]\npoint = [0.0, 0.0, 0.02]\nnormal = [0.0, 0.0, 1.0]\n", &[], 0);
     let s = summary(&out);
     assert_eq!(s["simulation"]["support_forces_n"].as_array().unwrap().len(), 1);
+    assert_eq!(s["simulation"]["start_lifted_vertices"], 1);
+    let up = s["simulation"]["support_forces_n"][0][2].as_f64().unwrap();
+    assert!(up > 1.0, "the floor carries {up} N");
     assert_eq!(s["scenario"]["supports"][0]["normal"], serde_json::json!([0.0, 0.0, 1.0]));
     let toml = "[suspension]\nmode = \"vertices\"\nvertices = [0, 1, 2, 3, 4, 5]\n[infill]\nfill_level = 0.3\n";
     run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);

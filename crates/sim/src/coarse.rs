@@ -136,6 +136,8 @@ pub(crate) struct Problem<'a> {
     pub loads: &'a Loads,
     pub constraints: &'a Constraints,
     pub supports: &'a [Plane],
+    /// The fine solve's start: the target, lifted clear of the supports.
+    pub start: &'a [Vec3],
     /// The fine mesh's contact barrier, which every level keeps: each coarse mold then rests
     /// at the fine one's contact distance, which its start inherits (sized for the coarse mesh,
     /// the barrier's wider zone left the bag on a floor of the tests 48 fine iterations from
@@ -161,7 +163,7 @@ pub(crate) fn coarse_start(pb: &Problem<'_>, ratio: usize) -> (Option<Vec<Vec3>>
 
 /// The body of [`coarse_start`]: the positions, or why there are none.
 fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<Vec<Vec3>, String> {
-    let Problem { mesh, material, loads, constraints, supports, barrier, opts } = *pb;
+    let Problem { mesh, material, loads, constraints, supports, start, barrier, opts } = *pb;
     let target_faces = mesh.n_faces() / ratio.max(2);
     if target_faces < COARSE_MIN_FACES {
         return Err(format!("a coarse mesh of {target_faces} faces is too small (at least {COARSE_MIN_FACES})"));
@@ -224,13 +226,14 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
         ));
     }
     let cons = constraints.restrict(&coarse.parent);
+    let coarse_start_x: Vec<Vec3> = coarse.parent.iter().map(|p| start[p.idx()]).collect();
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
     // The next level of the cascade, if it is still large enough; if it gives no start, or the
     // solve from its start fails, this level is solved from its target.
     let mut res = None;
     if coarse.mesh.n_faces() / ratio.max(2) >= CASCADE_MIN_FACES {
-        let pb = Problem { mesh: &coarse.mesh, constraints: &cons, opts: &opts, ..*pb };
+        let pb = Problem { mesh: &coarse.mesh, constraints: &cons, start: &coarse_start_x, opts: &opts, ..*pb };
         let (x, mut st) = coarse_start(&pb, ratio);
         if let Some(x) = x {
             match solve(&mut sys, x, &opts, &mut |_| {}) {
@@ -249,7 +252,7 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     }
     let res = match res {
         Some(r) => r,
-        None => solve(&mut sys, coarse.mesh.positions().as_slice().to_vec(), &opts, &mut |_| {})
+        None => solve(&mut sys, coarse_start_x.clone(), &opts, &mut |_| {})
             .map_err(|e| format!("coarse solve failed: {e}"))?,
     };
     stats.newton_iterations = res.stats.iterations;
@@ -258,10 +261,10 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
         return Err(format!("the coarse solve did not converge ({:?})", res.termination));
     }
     tracing::debug!(seconds = clock.elapsed().as_secs_f64(), iterations = res.stats.iterations, "coarse solve");
-    let disp: Vec<Vec3> = res.positions.iter().zip(coarse.mesh.positions().iter()).map(|(x, p)| x - p).collect();
+    let disp: Vec<Vec3> = res.positions.iter().zip(coarse_start_x.iter()).map(|(x, p)| x - p).collect();
     let closest = ClosestPoint::new(&coarse.mesh);
     let normals = mesh.vertex_normals();
-    let target = mesh.positions().as_slice();
+    let target = start;
     // Kept vertices (every partially constrained one among them) start where the coarse
     // solve put them; fully fixed ones that were simplified away, where they are held.
     let mut kept = vec![u32::MAX; mesh.n_vertices()];

@@ -144,7 +144,12 @@ pub enum SimError {
         vertex: VertexId,
     },
     /// A vertex starts on the wrong side of a support.
-    #[error("vertex {vertex} starts {distance:.4e} m behind support {support}: move the support or the mesh")]
+    #[error(
+        "vertex {vertex} starts {:.4e} m behind support {support}: a support may touch the mold or reach into \
+         it by up to a tenth of the mold's extent along its normal, never behind a held (clamped) vertex; move the \
+         support or the mesh",
+        .distance.abs()
+    )]
     BehindSupport {
         /// Support index.
         support: usize,
@@ -245,6 +250,9 @@ pub struct SimStats {
     pub solver: SolveStats,
     /// The coarse start, if it was tried.
     pub coarse_start: Option<CoarseStats>,
+    /// Vertices of the target on or behind a support (within [`SUPPORT_REACH`] of the mold's
+    /// extent), which the solve started in front of it.
+    pub start_lifted_vertices: usize,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -271,6 +279,68 @@ pub struct SimResult {
     pub stats: SimStats,
     /// Iteration history.
     pub history: Vec<IterationReport>,
+}
+
+/// How far a support may reach into the target, as a share of the mold's extent along the
+/// support's normal: a floor laid at the mold's lowest point, or a chair pressed a little into
+/// it, is taken; a plane across the mold (most likely wrong coordinates) is refused.
+pub const SUPPORT_REACH: f64 = 0.1;
+
+/// Lifts the start `x` clear of the supports: every free vertex on or behind a support moves
+/// along its normal to half the contact barrier's reach in front of it (the barrier is
+/// infinite at the plane). The rest shape is the target's either way; only the solve's start
+/// changes. Refused: a vertex behind a support by more than [`SUPPORT_REACH`] of the mold's
+/// extent along its normal (the deepest is named), a constrained vertex on or behind one (the
+/// suspension holds it there), and a vertex that no lift brings in front of every support
+/// (supports pinching the mold). Returns how many vertices were lifted.
+fn lift_onto_supports(
+    mesh: &Mesh,
+    x: &mut [Vec3],
+    supports: &[Plane],
+    constraints: &Constraints,
+    barrier: Barrier,
+) -> Result<usize, SimError> {
+    for (si, pl) in supports.iter().enumerate() {
+        let (low, high) = extent(mesh, &pl.normal);
+        let limit = SUPPORT_REACH * (high - low);
+        let deepest = (0..x.len()).map(|v| (v, pl.distance(&x[v]))).min_by(|a, b| a.1.total_cmp(&b.1));
+        let held = (0..x.len()).find(|&v| constraints.n_fixed(VertexId(v as u32)) > 0 && pl.distance(&x[v]) <= 0.0);
+        let behind =
+            |(v, distance): (usize, f64)| SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance };
+        if let Some(v) = held {
+            return Err(behind((v, pl.distance(&x[v]))));
+        }
+        if let Some(deepest) = deepest.filter(|&(_, d)| d < -limit) {
+            return Err(behind(deepest));
+        }
+    }
+    let clearance = 0.5 * barrier.dhat;
+    let mut lifted = vec![false; x.len()];
+    // A lift off one support may push a vertex behind another (two planes meeting at a corner):
+    // a few passes settle it.
+    for _ in 0..4 {
+        let mut moved = false;
+        for pl in supports {
+            for (v, p) in x.iter_mut().enumerate() {
+                let d = pl.distance(p);
+                if d <= 0.0 {
+                    *p += pl.normal * (clearance - d);
+                    lifted[v] = true;
+                    moved = true;
+                }
+            }
+        }
+        if !moved {
+            return Ok(lifted.iter().filter(|&&l| l).count());
+        }
+    }
+    let (si, v, d) = supports
+        .iter()
+        .enumerate()
+        .flat_map(|(si, pl)| x.iter().enumerate().map(move |(v, p)| (si, v, pl.distance(p))))
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .expect("a support was passed");
+    Err(SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance: d })
 }
 
 fn extent(mesh: &Mesh, up: &Vec3) -> (f64, f64) {
@@ -475,20 +545,18 @@ fn simulate_with_rest(
             return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
         }
     }
-    for (si, pl) in sc.supports.iter().enumerate() {
-        for v in mesh.vertices() {
-            let d = pl.distance(&mesh.position(v));
-            if d <= 0.0 {
-                return Err(SimError::BehindSupport { support: si, vertex: v, distance: d });
-            }
-        }
-    }
     let p_max = hydro.map(|h| h.rho_g * (h.fill_height - low)).unwrap_or(0.0)
         + loads.head_pressure.abs()
         + loads.self_weight.map(|w| w.0).unwrap_or(0.0);
     let barrier = (!sc.supports.is_empty()).then(|| contact_barrier(mesh, p_max, material));
 
     let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
+    // The start: the target, lifted clear of the supports it touches or that reach into it.
+    let mut lifted = target.clone();
+    let start_lifted_vertices = match barrier {
+        Some(b) => lift_onto_supports(mesh, &mut lifted, &sc.supports, &constraints, b)?,
+        None => 0,
+    };
     let mut coarse = sc
         .coarse
         .filter(|co| rest.is_none() && material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2)
@@ -499,6 +567,7 @@ fn simulate_with_rest(
                 loads: &loads,
                 constraints: &constraints,
                 supports: &sc.supports,
+                start: &lifted,
                 barrier,
                 opts: &sc.newton,
             };
@@ -506,12 +575,18 @@ fn simulate_with_rest(
         });
     let Sewn { elements, start, bars } =
         rest.unwrap_or_else(|| Sewn { elements: Element::for_mesh(mesh), start: None, bars: Vec::new() });
-    let start = start.map(|mut x| {
-        for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
-            x[v.idx()] = constraints.hold(v, x[v.idx()], target[v.idx()]);
+    let start = match start {
+        Some(mut x) => {
+            for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
+                x[v.idx()] = constraints.hold(v, x[v.idx()], target[v.idx()]);
+            }
+            if let Some(b) = barrier {
+                lift_onto_supports(mesh, &mut x, &sc.supports, &constraints, b)?;
+            }
+            Some(x)
         }
-        x
-    });
+        None => None,
+    };
     let mut sys =
         System::with_elements(mesh, elements, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
     if !bars.is_empty() {
@@ -520,9 +595,9 @@ fn simulate_with_rest(
     let res = match (&mut coarse, start) {
         (_, Some(x)) => solve(&mut sys, x, &sc.newton, progress)?,
         (Some((Some(x), st)), None) => {
-            solve_from_coarse(&mut sys, std::mem::take(x), st, target, &sc.newton, progress)?
+            solve_from_coarse(&mut sys, std::mem::take(x), st, lifted, &sc.newton, progress)?
         }
-        _ => solve(&mut sys, target, &sc.newton, progress)?,
+        _ => solve(&mut sys, lifted, &sc.newton, progress)?,
     };
     let coarse = coarse.map(|(_, st)| st);
     if let Some(st) = &coarse {
@@ -619,6 +694,7 @@ fn simulate_with_rest(
         lambda_range: [lmin, lmax],
         solver: res.stats,
         coarse_start: coarse,
+        start_lifted_vertices,
         seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(SimResult { positions, stretch, stats, history: res.history })

@@ -264,6 +264,39 @@ fn monotone_energy_and_force_balance_with_a_support() {
     assert!(balance.norm() < 1e-6 * weight, "force balance off by {balance}");
 }
 
+/// A floor at the bag's flat bottom (touching the target), or 1 cm into it, is taken: the
+/// bottom's vertices start just in front of it and the bag rests on it. A floor deeper than a
+/// tenth of the bag's height, or one touching a clamped vertex, is refused.
+#[test]
+fn a_support_touching_or_reaching_into_the_target_is_taken() {
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mesh = shapes::cylinder(0.1, 0.3, 32, 12, true, false);
+    let bottom = mesh.positions().iter().filter(|p| p.z <= 0.0).count();
+    assert!(bottom > 30, "the bag's bottom has {bottom} vertices");
+    let on_floor = |z: f64| Scenario {
+        suspension: Suspension::Boundary,
+        supports: vec![Plane::new(Vec3::new(0.0, 0.0, z), Vec3::z())],
+        ..Default::default()
+    };
+    for (z, lifted) in [(0.0, bottom), (0.01, mesh.positions().iter().filter(|p| p.z <= 0.01).count())] {
+        let r = simulate(&mesh, &mat, &on_floor(z), &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "floor at {z}: {:?}", r.stats.termination);
+        assert_eq!(r.stats.start_lifted_vertices, lifted, "floor at {z}");
+        assert!(r.positions.iter().all(|p| p.z > z), "a vertex passed the floor at {z}");
+        let support = Vec3::from(r.stats.support_forces_n[0]);
+        let weight = 1460.0 * 9.81 * r.stats.liquid_volume_m3;
+        assert!(support.z > 0.1 * weight, "the floor at {z} carries {support} of {weight} N");
+    }
+    // 4 cm into a 30 cm bag: deeper than a tenth of its height.
+    let e = simulate(&mesh, &mat, &on_floor(0.04), &mut |_| {}).err().expect("refused");
+    assert!(matches!(e, SimError::BehindSupport { distance, .. } if (distance + 0.04).abs() < 1e-12), "{e}");
+    // A wall touching the clamped rim (x = 0.1 at the rim's vertex 0 side).
+    let xmax = mesh.positions().iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+    let sc = Scenario { supports: vec![Plane::new(Vec3::new(xmax, 0.0, 0.0), -Vec3::x())], ..on_floor(-0.01) };
+    let e = simulate(&mesh, &mat, &sc, &mut |_| {}).err().expect("refused");
+    assert!(matches!(e, SimError::BehindSupport { .. }), "{e}");
+}
+
 /// A cup upside down, held at its rim on the floor and filled above its top: all the liquid is
 /// below the level, and its volume is the deformed mold's, closed by a flat lid across the rim
 /// (the divergence theorem on the surface and the lid). Without the lid the sum came out
