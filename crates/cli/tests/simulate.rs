@@ -186,6 +186,20 @@ fn scenario_errors_exit_2() {
     expect_exit(&run_stage("simulate", &out, None, &["--up", "[0, 0, 1]", "--height", "0.3"]), 0);
 }
 
+/// The example 3 m tall of a fabric of 1000 N/m (50 times softer than the default): the
+/// liquid's work grows with the stretch as fast as the fabric's energy (both as its fourth
+/// power) and here outgrows it; the mold runs away. Refused as a scenario problem (exit 2),
+/// even with --allow-unconverged, naming the fabric's stiffness.
+#[test]
+fn a_mold_running_away_under_its_load_is_refused() {
+    let out = tmpdir("runaway");
+    for extra in [&["--height", "3"][..], &["--height", "3", "--allow-unconverged"]] {
+        let t = run_configured("simulate", &out, "[material]\nyoungs_modulus = 1000.0\n", extra, 2);
+        assert_mentions(&t, "the mold ran away under the load");
+        assert_mentions(&t, "youngs_modulus to the fabric's (now 1000 N/m)");
+    }
+}
+
 #[test]
 fn supports_and_explicit_vertices() {
     let out = tmpdir("sup");

@@ -129,6 +129,11 @@ fn warn_overstretched(result: &SimResult, input: &Input) {
     }
 }
 
+/// A solve that did not converge with the mold moved more than this many times its bounding
+/// box's diagonal ran away: the scenario's load outgrows its fabric (refused as an input
+/// problem, even with `--allow-unconverged`: there is no equilibrium to go on with).
+const RUNAWAY: f64 = 10.0;
+
 /// Run the simulation, refuse a non-converged result unless allowed.
 pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult, Failure> {
     let sc = scenario(cfg, input)?;
@@ -157,6 +162,20 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             cfg.solver.tolerance,
             residual_site(s, input)
         );
+        let size = input.mesh.bbox().diagonal();
+        if s.max_displacement_m > RUNAWAY * size {
+            // No iteration count or damping brings this back: the scenario has no equilibrium
+            // the solve can reach (tet.obj 3 m tall of a fabric of 1000 N/m: the mold had moved
+            // 1400 km after 42 iterations).
+            return Err(Failure::Input(anyhow!(
+                "{why}: the mold ran away under the load (it moved up to {:.1e} m, {:.0} times its own size): the \
+                 fabric is far too soft for this load, and no equilibrium was found; set [material] youngs_modulus to \
+                 the fabric's (now {:.0} N/m), lower the fill or head pressure, or hold the mold by more of it",
+                s.max_displacement_m,
+                s.max_displacement_m / size,
+                cfg.material.youngs_modulus
+            )));
+        }
         if !cfg.solver.allow_unconverged {
             return Err(Failure::Internal(anyhow!(
                 "{why}; raise [solver] max_iterations, check the scenario, or pass --allow-unconverged to continue anyway"
