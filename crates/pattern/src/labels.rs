@@ -23,6 +23,10 @@ use crate::pattern::Text;
 /// Margin around a text's box, in text heights.
 const PAD: f64 = 0.15;
 
+/// Overlaps up to this depth (mm; a nanometre, far above the rounding of pattern coordinates
+/// and far below anything a plotter draws) count as touching.
+const TOUCH_MM: f64 = 1e-6;
+
 /// Half the height of a text's box, in text heights (a cap height centred on the position, with
 /// room for descenders).
 const HALF_HEIGHT: f64 = 0.65;
@@ -94,9 +98,11 @@ impl LabelBox {
             .max(0.0)
     }
 
-    /// Whether the two boxes overlap.
+    /// Whether the two boxes overlap by more than [`TOUCH_MM`]: boxes that only touch do not
+    /// (a mark's label is offset to touch the mark's box exactly, margins included, and the
+    /// rounding of that sum must not decide whether it is free).
     pub(crate) fn overlaps(&self, o: &LabelBox) -> bool {
-        self.penetration(o) > 0.0
+        self.penetration(o) > TOUCH_MM
     }
 
     /// Whether the box lies inside the simple polygon `poly` (its four sides inside: no corner
@@ -239,6 +245,14 @@ mod tests {
         // Turned by 90° beside it: clear; turned by 45° into its corner: overlapping.
         assert!(!a.overlaps(&LabelBox::of_text(&text("B1", [25.0, 0.0], 10.0, 90.0))));
         assert!(a.overlaps(&LabelBox::of_text(&text("B1", [20.0, 12.0], 10.0, 45.0))));
+        // A mark's label candidate touches the mark's box exactly: free, whatever the rounding.
+        for (c, s) in [([0.1, 0.2], 1.5), ([123.456, -78.9], 2.25), ([1e3 / 3.0, 7.0 / 3.0], 0.7)] {
+            let mark = LabelBox::square(c, s);
+            for t in mark_candidates("C12", c, s, 3.5).iter().take(4) {
+                assert!(!mark.overlaps(&LabelBox::of_text(t)), "{t:?} against the mark at {c:?}");
+                assert!(mark.penetration(&LabelBox::of_text(t)) < 1e-9);
+            }
+        }
     }
 
     #[test]
