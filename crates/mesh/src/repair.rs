@@ -110,7 +110,7 @@ pub fn repair_soup(soup: &TriSoup, opts: &RepairOptions) -> (TriSoup, RepairRepo
     let mut vert_src: Vec<u32> = (0..positions.len() as u32).collect();
 
     // 1. Faces touching non-finite vertices.
-    let finite: Vec<bool> = positions.iter().map(|p| p.iter().all(|c| c.is_finite())).collect();
+    let finite: Vec<bool> = positions.iter().map(crate::soup::usable_point).collect();
     retain_faces(&mut tris, &mut face_src, |t| {
         let ok = t.iter().all(|&v| finite[v as usize]);
         if !ok {

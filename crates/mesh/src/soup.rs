@@ -2,6 +2,16 @@
 
 use crate::Vec3;
 
+/// Coordinates beyond this magnitude (in the file's units) are refused like NaN: no model is
+/// 10⁹ km wide in metres (10⁶ km in millimetres), and squared lengths and areas of such points
+/// overflow (a tetrahedron at 1e300 had been refused for "zero area (inf)").
+pub const MAX_COORDINATE: f64 = 1e12;
+
+/// Whether every coordinate of `p` is finite and within ±[`MAX_COORDINATE`].
+pub fn usable_point(p: &Vec3) -> bool {
+    p.iter().all(|c| c.is_finite() && c.abs() <= MAX_COORDINATE)
+}
+
 /// Raw input: positions and triangles exactly as read (polygons fan-triangulated), with no
 /// guarantee beyond "every index is in range". Turn it into a [`crate::Mesh`] with
 /// [`crate::Mesh::try_from_soup`] (strict) or [`crate::repair::repair_soup`] (opt-in fixes).
@@ -56,11 +66,11 @@ impl Aabb {
         Self { min: Vec3::repeat(f64::INFINITY), max: Vec3::repeat(f64::NEG_INFINITY) }
     }
 
-    /// Box around the finite points of an iterator.
+    /// Box around the usable points of an iterator ([`usable_point`]).
     pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
         let mut b = Self::empty();
         for p in points {
-            if p.iter().all(|c| c.is_finite()) {
+            if usable_point(&p) {
                 b.min = b.min.inf(&p);
                 b.max = b.max.sup(&p);
             }

@@ -27,7 +27,7 @@ pub const ZERO_AREA_REL: f64 = 1e-14;
 pub enum Problem {
     /// The mesh has no faces.
     Empty,
-    /// A coordinate is NaN or infinite.
+    /// A coordinate is NaN, infinite, or beyond ±[`crate::soup::MAX_COORDINATE`].
     NonFiniteCoordinate {
         /// The vertex.
         vertex: VertexId,
@@ -171,7 +171,11 @@ impl fmt::Display for Problem {
         match self {
             Problem::Empty => write!(f, "the mesh has no faces"),
             Problem::NonFiniteCoordinate { vertex } => {
-                write!(f, "vertex {vertex} has a non-finite coordinate (NaN or infinity)")
+                write!(
+                    f,
+                    "vertex {vertex} has a non-finite coordinate (NaN or infinity, or beyond ±{:e})",
+                    crate::soup::MAX_COORDINATE
+                )
             }
             Problem::RepeatedVertexInFace { face, vertices } => {
                 write!(f, "face {face} (vertices {}) uses a vertex twice", vs(vertices))
@@ -310,7 +314,7 @@ pub fn analyze(soup: &TriSoup) -> SoupAnalysis {
         problems.push(Problem::Empty);
     }
 
-    let finite: Vec<bool> = soup.positions.iter().map(|p| p.iter().all(|c| c.is_finite())).collect();
+    let finite: Vec<bool> = soup.positions.iter().map(crate::soup::usable_point).collect();
     for (v, ok) in finite.iter().enumerate() {
         if !ok {
             problems.push(Problem::NonFiniteCoordinate { vertex: VertexId::new(v) });
@@ -724,5 +728,22 @@ mod tests {
         assert!(kinds.contains(&"duplicate_face"));
         assert!(kinds.contains(&"unreferenced_vertex"));
         assert!(kinds.contains(&"non_finite_coordinate"));
+    }
+
+    /// A tetrahedron stretched to 1e300 (a corrupt file): its vertices are refused as out of
+    /// range, not its faces as degenerate (their areas overflow to infinity); at 1e11 it is a
+    /// valid, if absurd, mesh.
+    #[test]
+    fn coordinates_out_of_range_are_refused() {
+        for (scale, bad) in [(1e300, 3), (1e11, 0)] {
+            let mut s = tet();
+            for p in &mut s.positions {
+                *p *= scale;
+            }
+            let a = analyze(&s);
+            let kinds: Vec<_> = a.problems.iter().map(|p| p.kind()).collect();
+            assert_eq!(kinds.iter().filter(|&&k| k == "non_finite_coordinate").count(), bad, "{scale}: {kinds:?}");
+            assert!(!kinds.contains(&"zero_area_face"), "{scale}: {kinds:?}");
+        }
     }
 }
