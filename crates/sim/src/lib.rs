@@ -45,5 +45,5 @@ pub mod system;
 
 pub use material::{Material, StVenantKirchhoff, WovenFabric};
 pub use scenario::{
-    FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate, simulate_sewn,
+    BehindWhy, FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate, simulate_sewn,
 };

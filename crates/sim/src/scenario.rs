@@ -143,13 +143,8 @@ pub enum SimError {
         /// A free boundary vertex.
         vertex: VertexId,
     },
-    /// A vertex starts on the wrong side of a support.
-    #[error(
-        "vertex {vertex} starts {:.4e} m behind support {support}: a support may touch the mold or reach into \
-         it by up to a tenth of the mold's extent along its normal, never behind a held (clamped) vertex; move the \
-         support or the mesh",
-        .distance.abs()
-    )]
+    /// A vertex starts on the wrong side of a support, and cannot be started in front of it.
+    #[error("vertex {vertex} starts {:.4e} m behind support {support}{why}; move the support or the mesh", .distance.abs())]
     BehindSupport {
         /// Support index.
         support: usize,
@@ -157,6 +152,8 @@ pub enum SimError {
         vertex: VertexId,
         /// Signed distance (≤ 0).
         distance: f64,
+        /// Why it cannot start in front of the support.
+        why: BehindWhy,
     },
     /// A rest triangle of a sewn mold is degenerate or folded.
     #[error("the pattern triangle of face {} is degenerate or folded (clockwise)", face.idx())]
@@ -185,6 +182,41 @@ pub enum SimError {
     Solver(#[from] SolveError),
 }
 
+/// Why a vertex on or behind a support cannot start in front of it ([`SimError::BehindSupport`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BehindWhy {
+    /// It lies deeper than a support may reach into the mold ([`SUPPORT_REACH`] of the mold's
+    /// extent along the support's normal; this many metres).
+    TooDeep {
+        /// The reach allowed (m).
+        reach_m: f64,
+    },
+    /// The suspension holds it there.
+    Held,
+    /// Lifted off the other supports, it stays behind this one: the supports pinch the mold.
+    Pinched,
+}
+
+impl std::fmt::Display for BehindWhy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BehindWhy::TooDeep { reach_m } => write!(
+                f,
+                ", deeper than the {reach_m:.4e} m (a tenth of the mold's extent along its normal) a support may reach \
+                 into the mold"
+            ),
+            BehindWhy::Held => write!(
+                f,
+                " and the suspension holds it there: a support must leave every held (clamped) vertex strictly in \
+                 front of it"
+            ),
+            BehindWhy::Pinched => {
+                write!(f, ", and no lift brings it in front of every support: the supports pinch the mold")
+            }
+        }
+    }
+}
+
 impl SimError {
     /// The same error with its vertex renumbered by `vertex` (e.g. back to the input file's
     /// numbering when the simulated mesh was repaired).
@@ -196,8 +228,8 @@ impl SimError {
             SimError::HeadPressureOnFreeBoundary { vertex: v } => {
                 SimError::HeadPressureOnFreeBoundary { vertex: vertex(v) }
             }
-            SimError::BehindSupport { support, vertex: v, distance } => {
-                SimError::BehindSupport { support, vertex: vertex(v), distance }
+            SimError::BehindSupport { support, vertex: v, distance, why } => {
+                SimError::BehindSupport { support, vertex: vertex(v), distance, why }
             }
             other => other,
         }
@@ -286,6 +318,10 @@ pub struct SimResult {
 /// it, is taken; a plane across the mold (most likely wrong coordinates) is refused.
 pub const SUPPORT_REACH: f64 = 0.1;
 
+/// Passes of lifts off every support (see [`lift_onto_supports`]); a vertex still behind one
+/// after them is refused ([`BehindWhy::Pinched`]).
+const LIFT_PASSES: usize = 64;
+
 /// Lifts the start `x` clear of the supports: every free vertex on or behind a support moves
 /// along its normal to half the contact barrier's reach in front of it (the barrier is
 /// infinite at the plane). The rest shape is the target's either way; only the solve's start
@@ -305,20 +341,24 @@ fn lift_onto_supports(
         let limit = SUPPORT_REACH * (high - low);
         let deepest = (0..x.len()).map(|v| (v, pl.distance(&x[v]))).min_by(|a, b| a.1.total_cmp(&b.1));
         let held = (0..x.len()).find(|&v| constraints.n_fixed(VertexId(v as u32)) > 0 && pl.distance(&x[v]) <= 0.0);
-        let behind =
-            |(v, distance): (usize, f64)| SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance };
+        let behind = |(v, distance): (usize, f64), why| SimError::BehindSupport {
+            support: si,
+            vertex: VertexId(v as u32),
+            distance,
+            why,
+        };
         if let Some(v) = held {
-            return Err(behind((v, pl.distance(&x[v]))));
+            return Err(behind((v, pl.distance(&x[v])), BehindWhy::Held));
         }
         if let Some(deepest) = deepest.filter(|&(_, d)| d < -limit) {
-            return Err(behind(deepest));
+            return Err(behind(deepest, BehindWhy::TooDeep { reach_m: limit }));
         }
     }
     let clearance = 0.5 * barrier.dhat;
     let mut lifted = vec![false; x.len()];
     // A lift off one support may push a vertex behind another (two planes meeting at a corner):
-    // a few passes settle it.
-    for _ in 0..4 {
+    // alternating lifts settle it, slowly in a sharp wedge.
+    for _ in 0..LIFT_PASSES {
         let mut moved = false;
         for pl in supports {
             for (v, p) in x.iter_mut().enumerate() {
@@ -340,7 +380,7 @@ fn lift_onto_supports(
         .flat_map(|(si, pl)| x.iter().enumerate().map(move |(v, p)| (si, v, pl.distance(p))))
         .min_by(|a, b| a.2.total_cmp(&b.2))
         .expect("a support was passed");
-    Err(SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance: d })
+    Err(SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance: d, why: BehindWhy::Pinched })
 }
 
 fn extent(mesh: &Mesh, up: &Vec3) -> (f64, f64) {

@@ -289,12 +289,30 @@ fn a_support_touching_or_reaching_into_the_target_is_taken() {
     }
     // 4 cm into a 30 cm bag: deeper than a tenth of its height.
     let e = simulate(&mesh, &mat, &on_floor(0.04), &mut |_| {}).err().expect("refused");
-    assert!(matches!(e, SimError::BehindSupport { distance, .. } if (distance + 0.04).abs() < 1e-12), "{e}");
+    assert!(
+        matches!(e, SimError::BehindSupport { distance, why: BehindWhy::TooDeep { reach_m }, .. }
+            if (distance + 0.04).abs() < 1e-12 && (reach_m - 0.03).abs() < 1e-12),
+        "{e}"
+    );
     // A wall touching the clamped rim (x = 0.1 at the rim's vertex 0 side).
     let xmax = mesh.positions().iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
     let sc = Scenario { supports: vec![Plane::new(Vec3::new(xmax, 0.0, 0.0), -Vec3::x())], ..on_floor(-0.01) };
     let e = simulate(&mesh, &mat, &sc, &mut |_| {}).err().expect("refused");
-    assert!(matches!(e, SimError::BehindSupport { .. }), "{e}");
+    assert!(matches!(e, SimError::BehindSupport { why: BehindWhy::Held, .. }), "{e}");
+    // A floor and a wall meeting at the bag's bottom rim, both reaching 5 mm into it: the rim's
+    // vertices are lifted off both (the wall leans out, clear of the clamped rim at the top).
+    let sc = Scenario {
+        supports: vec![
+            Plane::new(Vec3::new(0.0, 0.0, 0.005), Vec3::z()),
+            Plane::new(Vec3::new(xmax - 0.005, 0.0, 0.0), Vec3::new(-1.0, 0.0, 0.2)),
+        ],
+        ..on_floor(-0.01)
+    };
+    let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+    assert!(r.stats.converged, "{:?}", r.stats.termination);
+    assert!(r.stats.start_lifted_vertices > 33, "{} lifted", r.stats.start_lifted_vertices);
+    let walls = [Plane::new(Vec3::new(0.0, 0.0, 0.005), Vec3::z()), sc.supports[1]];
+    assert!(r.positions.iter().all(|p| walls.iter().all(|w| w.distance(p) > 0.0)), "a vertex passed a support");
 }
 
 /// A cup upside down, held at its rim on the floor and filled above its top: all the liquid is
