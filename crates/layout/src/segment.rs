@@ -1152,9 +1152,10 @@ impl<'a> State<'a> {
                 return None;
             }
         }
-        // Two patches found too wide together before, and unchanged since.
+        // The two patches measured together before, and unchanged since: too wide, or how wide.
         let pair = (a.min(b), a.max(b));
-        if a != b && self.union_extents.borrow().get(&pair).is_some_and(|&(limit, extent)| extent > limit) {
+        let known = self.union_extents.borrow().get(&pair).copied();
+        if known.is_some_and(|(limit, extent)| extent > limit) {
             return None;
         }
         let mut union: Vec<FaceId> = self.faces[a as usize].clone();
@@ -1174,8 +1175,7 @@ impl<'a> State<'a> {
             } else if self.extent(a) + self.extent(b) <= limit {
                 0.0
             } else {
-                let cached = self.union_extents.borrow().get(&pair).map(|&(_, extent)| extent);
-                cached.unwrap_or_else(|| {
+                known.map(|(_, extent)| extent).unwrap_or_else(|| {
                     let extent = patch_extent(self.mesh, &union);
                     self.union_extents.borrow_mut().insert(pair, (limit, extent));
                     extent

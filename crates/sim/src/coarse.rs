@@ -230,7 +230,8 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
     let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.clone() };
     // The next level of the cascade, if it is still large enough; if it gives no start, or the
-    // solve from its start fails, this level is solved from its target.
+    // solve from its start fails, this level is solved from its own start (its target, lifted
+    // clear of the supports as the fine one's).
     let mut res = None;
     if coarse.mesh.n_faces() / ratio.max(2) >= CASCADE_MIN_FACES {
         let pb = Problem { mesh: &coarse.mesh, constraints: &cons, start: &coarse_start_x, opts: &opts, ..*pb };
@@ -264,14 +265,13 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let disp: Vec<Vec3> = res.positions.iter().zip(coarse_start_x.iter()).map(|(x, p)| x - p).collect();
     let closest = ClosestPoint::new(&coarse.mesh);
     let normals = mesh.vertex_normals();
-    let target = start;
     // Kept vertices (every partially constrained one among them) start where the coarse
     // solve put them; fully fixed ones that were simplified away, where they are held.
     let mut kept = vec![u32::MAX; mesh.n_vertices()];
     for (i, p) in coarse.parent.iter().enumerate() {
         kept[p.idx()] = i as u32;
     }
-    let mut x: Vec<Vec3> = target
+    let mut x: Vec<Vec3> = start
         .par_iter()
         .enumerate()
         .map(|(v, p)| {
@@ -293,7 +293,7 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     // contact barrier is infinite behind it): an interpolated vertex may land behind a support
     // the coarse surface rested on. Each such vertex is moved back along the support's normal.
     for pl in supports {
-        for (v, (p, q)) in target.iter().zip(x.iter_mut()).enumerate() {
+        for (v, (p, q)) in start.iter().zip(x.iter_mut()).enumerate() {
             let (d0, d1) = (pl.distance(p), pl.distance(q));
             if d1 < 0.2 * d0 && constraints.n_fixed(VertexId(v as u32)) == 0 {
                 *q += pl.normal * (0.2 * d0 - d1);

@@ -282,8 +282,8 @@ pub struct SimStats {
     pub solver: SolveStats,
     /// The coarse start, if it was tried.
     pub coarse_start: Option<CoarseStats>,
-    /// Vertices of the target on or behind a support (within [`SUPPORT_REACH`] of the mold's
-    /// extent), which the solve started in front of it.
+    /// Vertices of the start (the target, or a sewn mold's start) on or behind a support
+    /// (within [`SUPPORT_REACH`] of the mold's extent), which the solve started in front of it.
     pub start_lifted_vertices: usize,
     /// Wall-clock seconds.
     pub seconds: f64,
@@ -336,22 +336,27 @@ fn lift_onto_supports(
     constraints: &Constraints,
     barrier: Barrier,
 ) -> Result<usize, SimError> {
+    let behind = |support, v: usize, distance, why| SimError::BehindSupport {
+        support,
+        vertex: VertexId(v as u32),
+        distance,
+        why,
+    };
     for (si, pl) in supports.iter().enumerate() {
-        let (low, high) = extent(mesh, &pl.normal);
-        let limit = SUPPORT_REACH * (high - low);
-        let deepest = (0..x.len()).map(|v| (v, pl.distance(&x[v]))).min_by(|a, b| a.1.total_cmp(&b.1));
-        let held = (0..x.len()).find(|&v| constraints.n_fixed(VertexId(v as u32)) > 0 && pl.distance(&x[v]) <= 0.0);
-        let behind = |(v, distance): (usize, f64), why| SimError::BehindSupport {
-            support: si,
-            vertex: VertexId(v as u32),
-            distance,
-            why,
-        };
-        if let Some(v) = held {
-            return Err(behind((v, pl.distance(&x[v])), BehindWhy::Held));
+        let mut deepest = (0, f64::INFINITY);
+        for (v, p) in x.iter().enumerate() {
+            let d = pl.distance(p);
+            if d <= 0.0 && constraints.n_fixed(VertexId(v as u32)) > 0 {
+                return Err(behind(si, v, d, BehindWhy::Held));
+            }
+            if d < deepest.1 {
+                deepest = (v, d);
+            }
         }
-        if let Some(deepest) = deepest.filter(|&(_, d)| d < -limit) {
-            return Err(behind(deepest, BehindWhy::TooDeep { reach_m: limit }));
+        let (low, high) = extent(mesh, &pl.normal);
+        let reach = SUPPORT_REACH * (high - low);
+        if deepest.1 < -reach {
+            return Err(behind(si, deepest.0, deepest.1, BehindWhy::TooDeep { reach_m: reach }));
         }
     }
     let clearance = 0.5 * barrier.dhat;
@@ -380,7 +385,7 @@ fn lift_onto_supports(
         .flat_map(|(si, pl)| x.iter().enumerate().map(move |(v, p)| (si, v, pl.distance(p))))
         .min_by(|a, b| a.2.total_cmp(&b.2))
         .expect("a support was passed");
-    Err(SimError::BehindSupport { support: si, vertex: VertexId(v as u32), distance: d, why: BehindWhy::Pinched })
+    Err(behind(si, v, d, BehindWhy::Pinched))
 }
 
 fn extent(mesh: &Mesh, up: &Vec3) -> (f64, f64) {
@@ -532,7 +537,7 @@ struct Sewn {
 
 fn simulate_with_rest(
     mesh: &Mesh,
-    rest: Option<Sewn>,
+    mut rest: Option<Sewn>,
     material: &dyn Material,
     sc: &Scenario,
     progress: &mut dyn FnMut(&IterationReport),
@@ -591,10 +596,19 @@ fn simulate_with_rest(
     let barrier = (!sc.supports.is_empty()).then(|| contact_barrier(mesh, p_max, material));
 
     let target: Vec<Vec3> = mesh.positions().as_slice().to_vec();
-    // The start: the target, lifted clear of the supports it touches or that reach into it.
-    let mut lifted = target.clone();
+    // The start: a sewn mold's own (its held vertices where they are held), or the target;
+    // lifted clear of the supports it touches or that reach into it.
+    let mut start = match rest.as_mut().and_then(|r| r.start.take()) {
+        Some(mut x) => {
+            for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
+                x[v.idx()] = constraints.hold(v, x[v.idx()], target[v.idx()]);
+            }
+            x
+        }
+        None => target.clone(),
+    };
     let start_lifted_vertices = match barrier {
-        Some(b) => lift_onto_supports(mesh, &mut lifted, &sc.supports, &constraints, b)?,
+        Some(b) => lift_onto_supports(mesh, &mut start, &sc.supports, &constraints, b)?,
         None => 0,
     };
     let mut coarse = sc
@@ -607,37 +621,23 @@ fn simulate_with_rest(
                 loads: &loads,
                 constraints: &constraints,
                 supports: &sc.supports,
-                start: &lifted,
+                start: &start,
                 barrier,
                 opts: &sc.newton,
             };
             coarse_start(&pb, co.ratio)
         });
-    let Sewn { elements, start, bars } =
+    let Sewn { elements, bars, .. } =
         rest.unwrap_or_else(|| Sewn { elements: Element::for_mesh(mesh), start: None, bars: Vec::new() });
-    let start = match start {
-        Some(mut x) => {
-            for v in mesh.vertices().filter(|&v| constraints.n_fixed(v) > 0) {
-                x[v.idx()] = constraints.hold(v, x[v.idx()], target[v.idx()]);
-            }
-            if let Some(b) = barrier {
-                lift_onto_supports(mesh, &mut x, &sc.supports, &constraints, b)?;
-            }
-            Some(x)
-        }
-        None => None,
-    };
     let mut sys =
         System::with_elements(mesh, elements, material, loads.clone(), &constraints, sc.supports.clone(), barrier);
     if !bars.is_empty() {
         sys.set_bars(bars);
     }
-    let res = match (&mut coarse, start) {
-        (_, Some(x)) => solve(&mut sys, x, &sc.newton, progress)?,
-        (Some((Some(x), st)), None) => {
-            solve_from_coarse(&mut sys, std::mem::take(x), st, lifted, &sc.newton, progress)?
-        }
-        _ => solve(&mut sys, lifted, &sc.newton, progress)?,
+    // (A sewn mold has no coarse start.)
+    let res = match &mut coarse {
+        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &sc.newton, progress)?,
+        _ => solve(&mut sys, start, &sc.newton, progress)?,
     };
     let coarse = coarse.map(|(_, st)| st);
     if let Some(st) = &coarse {
