@@ -134,7 +134,15 @@ fn patch_cuts(m: &Mesh, cost: &EdgeData<f64>) -> Vec<Vec<VertexId>> {
         let far = m.vertices().max_by(|a, b| d0[a.idx()].total_cmp(&d0[b.idx()])).unwrap_or(VertexId(0));
         let (d1, pred) = dijkstra(m, cost, &[far]);
         let other = m.vertices().max_by(|a, b| d1[a.idx()].total_cmp(&d1[b.idx()])).unwrap_or(far);
-        return vec![path_to_root(&pred, other)];
+        let mut slit = path_to_root(&pred, other);
+        if slit.len() == 2 {
+            // One edge is no slit the cut-open mesh can hold (a tetrahedron: every two vertices
+            // are neighbours): two.
+            if let Some(w) = m.outgoing(other).map(|h| m.head(h)).find(|&w| w != far) {
+                slit.insert(0, w);
+            }
+        }
+        return vec![slit];
     }
     // Genus > 0: tree–cotree generators, rooted on the boundary when there is one.
     let root = loops.first().map(|lp| m.tail(lp[0])).unwrap_or(VertexId(0));
@@ -192,6 +200,33 @@ fn patch_cuts(m: &Mesh, cost: &EdgeData<f64>) -> Vec<Vec<VertexId>> {
     cuts
 }
 
+/// Remove every seam edge that is a slit of its own: both its ends interior vertices with no
+/// other seam edge. Such a one-edge slit opens the patch (it counts as a hole: an annulus), but
+/// the cut-open mesh cannot hold it (its two sides share both end vertices, so they are one
+/// edge again), and as a seam it is a buttonhole, not a piece boundary. A separatrix that found
+/// nothing after one edge leaves one (a 436-face cylinder: "patch 0 is not a disk"). Returns how
+/// many were removed.
+pub fn drop_lone_seam_edges(mesh: &Mesh, seam: &mut EdgeData<bool>) -> usize {
+    let mut cuts_at = vec![0u32; mesh.n_vertices()];
+    for e in mesh.edges() {
+        if seam[e] || mesh.is_boundary_edge(e) {
+            for v in mesh.edge_vertices(e) {
+                cuts_at[v.idx()] += 1;
+            }
+        }
+    }
+    let lone: Vec<_> = mesh
+        .edges()
+        .filter(|&e| {
+            seam[e] && !mesh.is_boundary_edge(e) && mesh.edge_vertices(e).iter().all(|v| cuts_at[v.idx()] == 1)
+        })
+        .collect();
+    for &e in &lone {
+        seam[e] = false;
+    }
+    lone.len()
+}
+
 /// Join every `fixed` vertex (a singularity) that has no seam edge and is not on the boundary
 /// to the nearest seam or boundary vertex by a field-aligned shortest path; returns how many
 /// were joined.
@@ -242,6 +277,7 @@ pub fn make_disks(
     phi_max: f64,
 ) -> Result<(Vec<Vec<VertexId>>, Patches), LayoutError> {
     let mut added: Vec<Vec<VertexId>> = Vec::new();
+    drop_lone_seam_edges(mesh, seam);
     for _ in 0..10_000 {
         let p = patches(mesh, seam);
         let Some(bad) = (0..p.n).find(|&i| !p.is_disk(i)) else {
@@ -294,6 +330,61 @@ mod tests {
         assert!(!cuts.is_empty());
         assert_eq!(p.n, 1);
         assert!(p.is_disk(0), "χ {} loops {}", p.euler[0], p.loops[0]);
+    }
+
+    /// Every patch, cut open along the seams as the flattening cuts it, is a disk.
+    fn assert_cut_open_disks(m: &Mesh, seam: &EdgeData<bool>) {
+        let p = patches(m, seam);
+        let (cut, _) = cut_open(m, seam);
+        for i in 0..p.n {
+            assert!(p.is_disk(i), "patch {i}: χ {} loops {}", p.euler[i], p.loops[i]);
+            let faces: Vec<FaceId> = m.face_ids().filter(|&f| p.patch_of_face[f] as usize == i).collect();
+            let sub = extract_submesh(&cut, &faces).unwrap();
+            assert_eq!(sub.mesh.euler_characteristic(), 1, "patch {i}");
+            assert_eq!(sub.mesh.boundary_loops().len(), 1, "patch {i}");
+        }
+    }
+
+    #[test]
+    fn a_one_edge_slit_is_no_seam() {
+        // A lone seam edge and a three-edge slit far from it: the patch counts as an annulus,
+        // but cut open the lone edge closes again (its sides share both ends), so no cut joining
+        // the two was found ("patch 0 is not a disk"). The lone edge is dropped.
+        let s = shapes::icosphere(2, 1.0);
+        let mut seam = EdgeData::filled(s.n_edges(), false);
+        let lone = clothcast_mesh::EdgeId::new(0);
+        seam[lone] = true;
+        let a = s.position(s.edge_vertices(lone)[0]);
+        let mut v =
+            s.vertices().max_by(|x, y| (s.position(*x) - a).norm().total_cmp(&(s.position(*y) - a).norm())).unwrap();
+        let mut slit = vec![v];
+        for _ in 0..3 {
+            let w = s.outgoing(v).map(|h| s.head(h)).find(|w| !slit.contains(w)).unwrap();
+            seam[crate::patches::edge_between(&s, v, w).unwrap()] = true;
+            slit.push(w);
+            v = w;
+        }
+        let before = patches(&s, &seam);
+        assert_eq!((before.euler[0], before.loops[0]), (0, 2));
+        make_disks(&s, &constant_dirs(&s), &mut seam, 10.0, 0.8).unwrap();
+        assert!(!seam[lone]);
+        assert_cut_open_disks(&s, &seam);
+        // A tetrahedron without seams: its far-apart vertices are neighbours, and the slit
+        // opening it takes two edges.
+        let t = Mesh::try_new(
+            vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(0.0, 0.0, 1.0),
+            ],
+            vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+        )
+        .unwrap();
+        let mut seam = EdgeData::filled(t.n_edges(), false);
+        make_disks(&t, &constant_dirs(&t), &mut seam, 0.0, 0.8).unwrap();
+        assert_eq!(seam.iter().filter(|&&c| c).count(), 2);
+        assert_cut_open_disks(&t, &seam);
     }
 
     #[test]

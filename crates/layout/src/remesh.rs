@@ -5,8 +5,8 @@
 //! geometry-central's `CommonSubdivision` (no code copied), specialised to extrinsic polylines
 //! whose points lie on input vertices or edges:
 //!
-//! 1. Edge points within `snap` × edge length of an edge end become that vertex (no sliver next
-//!    to a vertex); points on the same edge at nearly the same parameter (two polylines meeting,
+//! 1. Edge points within `snap` × edge length of an edge end (at least [`MIN_SNAP`]) become that
+//!    vertex (no sliver next to a vertex); points on the same edge at nearly the same parameter (two polylines meeting,
 //!    round-off) become one new vertex; consecutive duplicates collapse.
 //! 2. Consecutive points on a common input edge are joined along that edge (through every new
 //!    vertex between them); otherwise they are the ends of a straight chord across their common
@@ -48,11 +48,19 @@ use crate::{LayoutError, SurfacePoint};
 /// Edge points of the same edge whose parameters differ by less than this are one vertex.
 const MERGE_T: f64 = 1e-6;
 
+/// The least snap, whatever the options ask: a point this close to an edge end (share of the
+/// edge) is that vertex. Without it, `snap = 0` kept crossings 10⁻¹² of an edge from its end
+/// and made faces of zero area (the 436-face cylinder: "remeshing produced an invalid mesh").
+/// A piece's worst triangle is then about 10⁻⁸ of its input face (two points this close to
+/// one corner), well above the mesh's zero-area threshold.
+pub const MIN_SNAP: f64 = 1e-4;
+
 /// Options of the remeshing.
 #[derive(Clone, Debug)]
 pub struct RemeshOptions {
     /// A polyline point closer than this fraction of its edge's length to an edge end is snapped
-    /// to that vertex (clamped to [0, 0.5]; a non-finite value means no snapping).
+    /// to that vertex (clamped to [[`MIN_SNAP`], 0.5]; a non-finite value means the least
+    /// snap, [`MIN_SNAP`]).
     pub snap: f64,
 }
 
@@ -100,7 +108,7 @@ pub fn insert_polylines(
     polylines: &[Vec<SurfacePoint>],
     options: &RemeshOptions,
 ) -> Result<Remeshed, LayoutError> {
-    let snap = if options.snap.is_finite() { options.snap.clamp(0.0, 0.5) } else { 0.0 };
+    let snap = if options.snap.is_finite() { options.snap.clamp(MIN_SNAP, 0.5) } else { MIN_SNAP };
     let n_in = mesh.n_vertices();
 
     // 1. Validate, snap, collect edge points.
@@ -520,6 +528,14 @@ mod tests {
         let r = insert_polylines(&m, std::slice::from_ref(&line), &RemeshOptions { snap: 0.0 }).unwrap();
         assert_eq!(r.mesh.n_vertices(), 7);
         assert!(r.paths[0][0].idx() >= 4);
+        // Not even without snapping is a point next to a vertex inserted: it would make a face
+        // of (numerically) zero area.
+        for t in [1e-12, 0.5 * MIN_SNAP, 1.0 - 1e-12] {
+            let line = vec![on(&m, 0, 1, t), on(&m, 0, 2, 0.5), on(&m, 2, 3, 0.5)];
+            let r = insert_polylines(&m, std::slice::from_ref(&line), &RemeshOptions { snap: 0.0 }).unwrap();
+            assert_eq!(r.mesh.n_vertices(), 6, "{t}");
+            assert!(r.paths[0][0].idx() < 4, "{t}");
+        }
         // Two polylines meeting at (nearly) the same edge point share its vertex.
         let a = vec![on(&m, 0, 1, 0.5), on(&m, 0, 2, 0.5)];
         let mut b = vec![on(&m, 0, 2, 0.5), on(&m, 2, 3, 0.5)];

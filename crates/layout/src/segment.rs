@@ -325,6 +325,8 @@ pub fn segment(
         singular[s.vertex] = true;
         index[s.vertex] = s.index;
     }
+    // A one-edge stub of a separatrix is no seam; its singularity is then joined as any other.
+    let mut lone = cutgraph::drop_lone_seam_edges(mesh, &mut seam);
     let attached = cutgraph::attach_isolated(mesh, &dirs, &mut seam, &singular, opts.drift_penalty, phi_max);
     tracing::debug!(separatrices = stats.separatrices, attached, "traced");
 
@@ -487,7 +489,11 @@ pub fn segment(
     let total_area = stage.mesh.total_area();
     let field_directions = final_field(&stage, &dirs);
 
-    // 8. Verify and report.
+    // 8. Verify and report (the passes above may have left a one-edge slit too).
+    lone += cutgraph::drop_lone_seam_edges(&stage.mesh, &mut stage.seam);
+    if lone > 0 {
+        tracing::debug!(lone, "one-edge slits removed from the seams");
+    }
     let rule =
         CornerRule::new(&stage.mesh, &stage.index).with_chords(final_chords).with_field(field_directions.clone());
     let p = patches_with(&stage.mesh, &stage.seam, &rule);
