@@ -220,9 +220,14 @@ pub fn run(args: &RunArgs, progress: &Progress, until: Until) -> Result<(), Fail
                     if retries == ROLL_RETRIES_MAX || repeats >= 2 || (retries >= ROLL_RETRIES && stalls >= ROLL_STALLS)
                     {
                         stages::segmentation::write_outputs(out, &input, &seg)?;
+                        let finer = if cfg.mesh.refine {
+                            format!("a finer mesh (--min-faces, now {}) may help", cfg.mesh.min_faces)
+                        } else {
+                            "refining the mesh ([mesh] refine = true, off in this scenario) may help".to_string()
+                        };
                         return Err(Failure::Input(anyhow::anyhow!(
                             "{e} (after {} layout(s) splitting the pieces too wide: a patch with too few faces, or one no cut \
-                         parts into two disks, cannot be split further; a finer mesh (--min-faces) may help)",
+                         parts into two disks, cannot be split further; {finer})",
                             retries + 1
                         )));
                     }
