@@ -15,7 +15,8 @@
 //! term is indefinite under compression. [`Element::evaluate`] (with `project`) replaces S by its
 //! positive part S⁺ in the geometric term, which gives a PSD Hessian that equals the exact one
 //! wherever the membrane is in tension (the common case under infill pressure), at the cost of
-//! two 2×2 eigen-decompositions instead of a 9×9 one.
+//! two 2×2 eigen-decompositions instead of a 9×9 one. Near the equilibrium Newton takes the
+//! exact term ([`crate::newton::EXACT_TAIL`]).
 
 use crate::material::{Material, MaterialResponse};
 use clothcast_mesh::{FaceId, Mesh, Vec3};

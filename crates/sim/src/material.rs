@@ -114,7 +114,7 @@ impl Material for StVenantKirchhoff {
 /// The energy is C¹ across the regions, the stress is always positive semi-definite, and the
 /// tangent `Y P1⊗P1 + Y e1/(e1−e2) (P1 dE P2 + P2 dE P1)` (P_i the eigenprojectors) is PSD,
 /// so Newton needs no projection and converges where plain StVK, whose compressed regions are
-/// saddles (the membrane would buckle), stalls.
+/// saddles (the membrane would buckle), crawls (2–4 times the iterations).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WrinklingStVenantKirchhoff {
     /// The underlying StVK parameters.

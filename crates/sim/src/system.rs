@@ -151,6 +151,9 @@ pub struct System<'a> {
     /// loop reads the positions in about vertex order. Any order gives the same sums: each
     /// slot still sums its entries in face order, and so does the gradient.
     face_store: Vec<u32>,
+    /// The Hessian's geometric term taken exactly even where the material asks for its
+    /// positive part ([`System::set_exact_geometric`]).
+    exact_geometric: bool,
 }
 
 /// One evaluation on free dofs.
@@ -323,6 +326,7 @@ impl<'a> System<'a> {
             spare_hessian: None,
             mean_edge: mesh.mean_edge_length(),
             bars: Vec::new(),
+            exact_geometric: false,
         }
     }
 
@@ -704,12 +708,19 @@ impl<'a> System<'a> {
         alpha
     }
 
+    /// Take the geometric term of the Hessian exactly from the next evaluation on, whatever
+    /// [`Material::project_geometric`] says.
+    pub fn set_exact_geometric(&mut self, exact: bool) {
+        self.exact_geometric = exact;
+    }
+
     /// Energy, gradient, external force and (optionally) the Hessian, its elastic part's
     /// geometric term projected to PSD where the material asks for it
     /// ([`Material::project_geometric`]; see [`crate::element`]), seam bars included.
     pub fn evaluate(&mut self, x: &[Vec3], s: f64, hessian: bool) -> Evaluation {
         let mesh = self.mesh;
         let material = self.material;
+        let project = material.project_geometric() && !self.exact_geometric;
         let loads = &self.loads;
         let center = self.volume_center;
         let frames = &self.frames;
@@ -717,9 +728,9 @@ impl<'a> System<'a> {
         self.buf.par_iter_mut().zip(self.hess.par_chunks_mut(PICKS)).zip(&self.stored).for_each(|((out, hout), sf)| {
             let f = sf.face;
             let p = sf.vertices.map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, material.project_geometric());
+            let (mut e, mut g, mut h) = sf.element.evaluate(material, f, &p, project);
             if let Some(b) = bars.get(f.idx()) {
-                add_bars(b, &p, material.project_geometric(), &mut e, &mut g, &mut h);
+                add_bars(b, &p, project, &mut e, &mut g, &mut h);
             }
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
