@@ -739,3 +739,35 @@ fn simulate_with_rest(
     };
     Ok(SimResult { positions, stretch, stats, history: res.history })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clothcast_mesh::shapes;
+
+    /// Two supports facing each other closer than the clearance a lifted vertex is given: each
+    /// lift puts the vertex behind the other support, and after the passes it is refused as
+    /// pinched, named with the support it is behind.
+    #[test]
+    fn a_vertex_pinched_between_supports_is_refused() {
+        let mesh = shapes::icosphere(1, 1.0);
+        let mut x: Vec<Vec3> = mesh.positions().iter().map(|p| Vec3::new(p.x, p.y, 0.0005)).collect();
+        x[0].z = -0.001;
+        let supports = vec![Plane::new(Vec3::zeros(), Vec3::z()), Plane::new(Vec3::new(0.0, 0.0, 0.002), -Vec3::z())];
+        let barrier = Barrier { dhat: 0.01, kappa: 1.0 };
+        let free = Constraints::free(mesh.n_vertices());
+        match lift_onto_supports(&mesh, &mut x, &supports, &free, barrier) {
+            Err(SimError::BehindSupport { vertex, distance, why: BehindWhy::Pinched, .. }) => {
+                assert_eq!(vertex, VertexId(0));
+                assert!(distance < 0.0, "{distance}");
+            }
+            other => panic!("expected a pinched vertex, got {other:?}"),
+        }
+        // With room between them the same vertex is lifted, in front of both.
+        let mut x: Vec<Vec3> = mesh.positions().iter().map(|p| Vec3::new(p.x, p.y, 0.0005)).collect();
+        x[0].z = -0.001;
+        let supports = vec![supports[0], Plane::new(Vec3::new(0.0, 0.0, 0.02), -Vec3::z())];
+        assert_eq!(lift_onto_supports(&mesh, &mut x, &supports, &free, barrier).unwrap(), 1);
+        assert!(supports.iter().all(|pl| pl.distance(&x[0]) > 0.0));
+    }
+}
