@@ -16,7 +16,7 @@
 //! positive part S⁺ in the geometric term, which gives a PSD Hessian that equals the exact one
 //! wherever the membrane is in tension (the common case under infill pressure), at the cost of
 //! two 2×2 eigen-decompositions instead of a 9×9 one. Near the equilibrium Newton takes the
-//! exact term ([`crate::newton::EXACT_TAIL`]).
+//! exact term ([`crate::newton::EXACT_TAIL`], or the material's).
 
 use crate::material::{Material, MaterialResponse};
 use clothcast_mesh::{FaceId, Mesh, Vec3};

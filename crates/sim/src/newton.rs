@@ -1,7 +1,8 @@
 //! Static equilibrium by Newton's method on the total potential.
 //!
 //! Each iteration: assemble the gradient and the Hessian (elastic part projected to PSD, see
-//! [`crate::element`], until the relative residual is below [`EXACT_TAIL`], then exact;
+//! [`crate::element`], until the relative residual is below the material's
+//! [`crate::material::Material::exact_geometric_below`], then exact;
 //! pressure part exact), factor `H + μM` with the sparse Cholesky whose
 //! symbolic analysis (node-level AMD or nested dissection, whichever factor is smaller) was
 //! done once, solve for the step, and backtrack along it until the energy decreases enough
@@ -410,8 +411,11 @@ pub fn solve(
     // The damping matrix, scaled by the Hessian at the start.
     // (That evaluation, at full load where the solve starts, is also its first iteration's.)
     let ta = Instant::now();
-    // (A system solved before starts projected again.)
-    sys.set_exact_geometric(false);
+    // The geometric term taken exactly (see Material::exact_geometric_below): from the start
+    // for a material that asks for it throughout (a system solved before starts afresh).
+    let exact_below = sys.material().exact_geometric_below();
+    let mut exact = exact_below == f64::INFINITY;
+    sys.set_exact_geometric(exact);
     let mut first_evaluation = Some(sys.evaluate(&x, 1.0, true));
     stats.assembly_seconds += ta.elapsed().as_secs_f64();
     let damping = DampingMatrix::new(
@@ -434,8 +438,6 @@ pub fn solve(
     stats.single_precision = use_single;
     let mut poor_preconditioner = 0usize;
     let mut pcg_promising = false;
-    // The geometric term taken exactly (see EXACT_TAIL).
-    let mut exact = false;
     // Per-face energies at the iterate (from its evaluation, once per iteration, when a
     // relaxation needs them) and at a trial point.
     let (mut base_faces, mut trial_faces) = (Vec::new(), Vec::new());
@@ -472,7 +474,7 @@ pub fn solve(
             termination = Termination::MaxIterations;
             break;
         }
-        if r < EXACT_TAIL && !exact {
+        if r < exact_below && !exact {
             exact = true;
             sys.set_exact_geometric(true);
             tracing::debug!(iteration = stats.iterations + 1, residual = r, "geometric term exact from here");
@@ -834,15 +836,15 @@ pub const RELAX_TRIALS: usize = 2;
 /// length in a sweep (and none of its neighbours does).
 pub const RELAX_TOLERANCE: f64 = 1e-3;
 
-/// Below this relative residual the Hessian's geometric term takes the stress exactly, also
-/// for a material that asks for its positive part ([`crate::material::Material::project_geometric`]):
-/// near the equilibrium the projection only slows Newton down. Plain StVK keeps compressed
+/// Below this relative residual the Hessian's geometric term takes the stress exactly (the
+/// default of [`crate::material::Material::exact_geometric_below`]); above it, its positive
+/// part. Near the equilibrium the projection only slows Newton down. Plain StVK keeps compressed
 /// faces at its equilibrium, where the projected term made the tail linear (the built-in example
 /// at 0.5 m: relative residual 2·10⁻⁵ after 200 iterations; over 24 solves of eight meshes at
 /// 0.3, 0.5 and 1 m, 9 did not converge within 200). With the exact term from 10⁻¹ all 24
-/// converged (the example in 55); an indefinite step raises the damping, as for the woven
-/// fabric of the check. The tension-field model's stress is positive semi-definite, so its
-/// solves are unchanged.
+/// converged (the example in 55; 10⁻² and 10⁻³ left camelhead at 0.3 m unconverged, and so
+/// did the exact term throughout); an indefinite step raises the damping. The tension-field
+/// model's stress is positive semi-definite, so its solves are unchanged.
 pub const EXACT_TAIL: f64 = 1e-1;
 
 /// Conjugate-gradient iterations allowed with a reused factor before refactoring.

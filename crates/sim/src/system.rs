@@ -347,6 +347,11 @@ impl<'a> System<'a> {
         self.spare_hessian = Some(values);
     }
 
+    /// The material.
+    pub fn material(&self) -> &'a dyn Material {
+        self.material
+    }
+
     /// Number of free degrees of freedom.
     pub fn n_dofs(&self) -> usize {
         self.n_dofs
@@ -708,19 +713,19 @@ impl<'a> System<'a> {
         alpha
     }
 
-    /// Take the geometric term of the Hessian exactly from the next evaluation on, whatever
-    /// [`Material::project_geometric`] says.
+    /// Take the geometric term of the Hessian exactly from the next evaluation on (true), or at
+    /// the stress's positive part (false, as set up): see [`Material::exact_geometric_below`].
     pub fn set_exact_geometric(&mut self, exact: bool) {
         self.exact_geometric = exact;
     }
 
     /// Energy, gradient, external force and (optionally) the Hessian, its elastic part's
-    /// geometric term projected to PSD where the material asks for it
-    /// ([`Material::project_geometric`]; see [`crate::element`]), seam bars included.
+    /// geometric term projected to PSD unless set exact ([`System::set_exact_geometric`]; see
+    /// [`crate::element`]), seam bars included.
     pub fn evaluate(&mut self, x: &[Vec3], s: f64, hessian: bool) -> Evaluation {
         let mesh = self.mesh;
         let material = self.material;
-        let project = material.project_geometric() && !self.exact_geometric;
+        let project = !self.exact_geometric;
         let loads = &self.loads;
         let center = self.volume_center;
         let frames = &self.frames;
@@ -937,7 +942,7 @@ mod tests {
         for f in mesh.face_ids() {
             let vs = mesh.face_vertices(f);
             let p = vs.map(|v| x[v.idx()]);
-            let (mut e, mut g, mut h) = sys.element(f).evaluate(sys.material, f, &p, sys.material.project_geometric());
+            let (mut e, mut g, mut h) = sys.element(f).evaluate(sys.material, f, &p, !sys.exact_geometric);
             let mut ext = 0.0;
             let mut eg = Vec9::zeros();
             if let Some(hy) = &sys.loads.hydrostatic
