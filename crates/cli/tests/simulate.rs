@@ -93,6 +93,20 @@ fn non_convergence_is_an_error_unless_allowed() {
 }
 
 #[test]
+fn a_fabric_very_stiff_for_its_mold_is_named_when_the_solve_does_not_converge() {
+    // Y / (ρ g H²) = 5·10⁶ / (1460 · 9.81 · 0.5²) ≈ 1400: Newton needs many iterations there.
+    let out = tmpdir("nonconv-stiff");
+    let t =
+        run_configured("simulate", &out, "[material]\nyoungs_modulus = 5e6\n[solver]\nmax_iterations = 3\n", &[], 1);
+    assert_mentions(&t, "very stiff for so small a mold");
+    assert_mentions(&t, "max_iterations = 1000");
+    // The default fabric (ratio 14) is not.
+    let t = run_configured("simulate", &out, "[solver]\nmax_iterations = 3\n", &[], 1);
+    assert_mentions(&t, "did not converge");
+    assert!(!t.contains("very stiff"), "{t}");
+}
+
+#[test]
 fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     // The built-in example (0.5 m) filled to 0.1 m: the fabric above the liquid hangs slack or
     // wrinkled, and 15 iterations leave most of the residual there (it converges in 76).
