@@ -45,5 +45,6 @@ pub mod system;
 
 pub use material::{Material, StVenantKirchhoff, WovenFabric};
 pub use scenario::{
-    BehindWhy, FillLevel, ResidualSite, Scenario, SimError, SimResult, SimStats, Suspension, simulate, simulate_sewn,
+    BehindWhy, CONTINUATION_RATIO, CONTINUATION_START, FillLevel, ResidualSite, Scenario, SimError, SimResult,
+    SimStats, StiffnessStage, Suspension, simulate, simulate_sewn, stiffness_stages,
 };

@@ -285,6 +285,10 @@ pub struct SimStats {
     /// Vertices of the start (the target, or a sewn mold's start) on or behind a support
     /// (within [`SUPPORT_REACH`] of the mold's extent), which the solve started in front of it.
     pub start_lifted_vertices: usize,
+    /// The stiffness continuation of a fabric very stiff for its mold (empty without): each
+    /// stage's share of the fabric's stiffness and its Newton iterations, the last at the full
+    /// stiffness ([`CONTINUATION_RATIO`]). `newton_iterations` counts them all.
+    pub stiffness_stages: Vec<StiffnessStage>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -299,6 +303,77 @@ pub struct ResidualSite {
     /// Its height above the fill level at the end of the solve (m; negative: below, wetted);
     /// `None` without infill.
     pub height_above_level_m: Option<f64>,
+}
+
+/// One stage of the stiffness continuation ([`SimStats::stiffness_stages`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct StiffnessStage {
+    /// The fabric's stiffness in this stage, as a share of its own.
+    pub factor: f64,
+    /// Newton iterations of the stage.
+    pub newton_iterations: usize,
+    /// Whether the stage converged (a stage that did not is still the next one's start).
+    pub converged: bool,
+}
+
+/// A fabric stiffer than this against its load (its reference stiffness over the largest
+/// pressure times the mold's height: Y / (ρ g H²) when filled to the top) is solved by a
+/// continuation in stiffness: first at [`CONTINUATION_START`] of this ratio, then three times
+/// stiffer each stage, each from the last one's equilibrium, the last at the fabric's own
+/// stiffness. Such a fabric barely stretches, and from the target Newton took many short steps
+/// while the wrinkles settled. Measured on 2026-12-04 at 0.1 m tall (ratio 350 / 700 / 2100 for
+/// Y = 50 / 100 / 300 kN/m), Newton iterations in all, directly → by stages: spot 76 → 52 /
+/// 127 → 79 / 408 (with 1000 allowed) → 148; bunny 44 → 38 (50 kN/m), 134 → 93 (300 kN/m);
+/// fertility 28 → 26, 47 → 54. The default scenarios at 0.5 m have ratios near 14.
+pub const CONTINUATION_RATIO: f64 = 300.0;
+
+/// The ratio of the continuation's first stage ([`CONTINUATION_RATIO`]).
+pub const CONTINUATION_START: f64 = 100.0;
+
+/// The stiffness shares of the continuation's stages for a fabric `ratio` times as stiff as its
+/// load (empty at or below [`CONTINUATION_RATIO`]): from [`CONTINUATION_START`] / ratio, ×3 a
+/// stage, ending at 1 (a stage above 0.7 is skipped for the last).
+pub fn stiffness_stages(ratio: f64) -> Vec<f64> {
+    if !(ratio > CONTINUATION_RATIO) || !ratio.is_finite() {
+        return Vec::new();
+    }
+    let mut stages = Vec::new();
+    let mut f = CONTINUATION_START / ratio;
+    while f < 0.7 {
+        stages.push(f);
+        f *= 3.0;
+    }
+    stages.push(1.0);
+    stages
+}
+
+/// A material with its stiffness scaled: energy, stress and tangent times `factor`.
+struct Scaled<'a> {
+    inner: &'a dyn Material,
+    factor: f64,
+}
+
+impl Material for Scaled<'_> {
+    fn response(&self, face: FaceId, e: &nalgebra::Vector3<f64>) -> crate::material::MaterialResponse {
+        let r = self.inner.response(face, e);
+        crate::material::MaterialResponse {
+            energy: r.energy * self.factor,
+            stress: r.stress * self.factor,
+            tangent: r.tangent * self.factor,
+        }
+    }
+    fn energy(&self, face: FaceId, e: &nalgebra::Vector3<f64>) -> f64 {
+        self.inner.energy(face, e) * self.factor
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.inner.reference_stiffness() * self.factor
+    }
+    fn is_uniform(&self) -> bool {
+        self.inner.is_uniform()
+    }
+    fn exact_geometric_below(&self) -> f64 {
+        self.inner.exact_geometric_below()
+    }
 }
 
 /// The equilibrium.
@@ -611,9 +686,40 @@ fn simulate_with_rest(
         Some(b) => lift_onto_supports(mesh, &mut start, &sc.supports, &constraints, b)?,
         None => 0,
     };
+    // A fabric very stiff for its mold: stages of growing stiffness (not for a sewn mold, which
+    // starts from stage 1's equilibrium).
+    let stages = if rest.is_none() && p_max > 0.0 {
+        stiffness_stages(material.reference_stiffness() / (p_max * (top - low)))
+    } else {
+        Vec::new()
+    };
+    let mut stiffness_stages = Vec::new();
+    let mut history = Vec::new();
+    let mut iterations = 0;
+    for &factor in stages.iter().filter(|&&f| f < 1.0) {
+        let soft = Scaled { inner: material, factor };
+        let mut sys = System::new(mesh, &soft, loads.clone(), &constraints, sc.supports.clone(), barrier);
+        let opts = NewtonOptions {
+            max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
+            ..sc.newton.clone()
+        };
+        let res = solve(&mut sys, start, &opts, progress)?;
+        let converged = res.termination == Termination::Converged;
+        tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
+        stiffness_stages.push(StiffnessStage { factor, newton_iterations: res.stats.iterations, converged });
+        iterations += res.stats.iterations;
+        history.extend(res.history);
+        start = res.positions;
+    }
     let mut coarse = sc
         .coarse
-        .filter(|co| rest.is_none() && material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2)
+        .filter(|co| {
+            rest.is_none()
+                && stages.is_empty()
+                && material.is_uniform()
+                && mesh.n_faces() >= co.min_faces
+                && co.ratio >= 2
+        })
         .map(|co| {
             let pb = Problem {
                 mesh,
@@ -634,11 +740,25 @@ fn simulate_with_rest(
     if !bars.is_empty() {
         sys.set_bars(bars);
     }
-    // (A sewn mold has no coarse start.)
-    let res = match &mut coarse {
-        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &sc.newton, progress)?,
-        _ => solve(&mut sys, start, &sc.newton, progress)?,
+    let opts = NewtonOptions {
+        max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
+        ..sc.newton.clone()
     };
+    // (A sewn mold has no coarse start.)
+    let mut res = match &mut coarse {
+        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
+        _ => solve(&mut sys, start, &opts, progress)?,
+    };
+    if !stiffness_stages.is_empty() {
+        stiffness_stages.push(StiffnessStage {
+            factor: 1.0,
+            newton_iterations: res.stats.iterations,
+            converged: res.termination == Termination::Converged,
+        });
+        res.stats.iterations += iterations;
+        history.append(&mut res.history);
+        res.history = history;
+    }
     let coarse = coarse.map(|(_, st)| st);
     if let Some(st) = &coarse {
         tracing::debug!(?st, "coarse start");
@@ -735,6 +855,7 @@ fn simulate_with_rest(
         solver: res.stats,
         coarse_start: coarse,
         start_lifted_vertices,
+        stiffness_stages,
         seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(SimResult { positions, stretch, stats, history: res.history })

@@ -100,10 +100,11 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
 }
 
 /// A fabric stiffer than this against the liquid's load (Y / (ρ g H²), H the mold's height)
-/// barely stretches, and Newton takes many short steps while the wrinkles settle: measured on
-/// 2026-12-04, spot 0.1 m tall (ratio 350 / 700 / 2100 for Y = 50 / 100 / 300 kN/m) took
-/// 76 / 127 / 408 iterations, bunny 44 / – / 134; the default scenarios at 0.5 m (ratio 14) take
-/// 10–30.
+/// barely stretches, and Newton takes many short steps while the wrinkles settle, even in the
+/// stages of growing stiffness it is solved in (`clothcast_sim::CONTINUATION_RATIO`): measured
+/// on 2026-12-04, spot 0.1 m tall (ratio 350 / 700 / 2100 for Y = 50 / 100 / 300 kN/m) took
+/// 52 / 79 / 148 iterations (76 / 127 / 408 directly), bunny 38 / 51 / 93; the default
+/// scenarios at 0.5 m (ratio 14) take 10–30.
 const STIFF_RATIO: f64 = 1000.0;
 
 /// What to say of a solve that did not converge on a fabric very stiff for its mold.
@@ -119,8 +120,9 @@ fn stiff_hint(cfg: &Config, input: &Input) -> String {
     }
     format!(
         "; the fabric is very stiff for so small a mold (youngs_modulus / (ρ g H²) = {ratio:.0}): it barely \
-         stretches, and Newton takes many short steps while the wrinkles settle (spot 0.1 m tall of a 300 kN/m \
-         fabric converged in 408 iterations): [solver] max_iterations = 1000 helps"
+         stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
+         stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): [solver] \
+         max_iterations = 1000 helps"
     )
 }
 
