@@ -99,7 +99,8 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     out
 }
 
-/// A fabric stiffer than this against the liquid's load (Y / (ρ g H²), H the mold's height)
+/// A fabric stiffer than this against its load (Y / (p H), p the largest pressure, H the mold's
+/// height; Y / (ρ g H²) when filled to the top)
 /// barely stretches, and Newton takes many short steps while the wrinkles settle, even in the
 /// stages of growing stiffness it is solved in (`clothcast_sim::CONTINUATION_RATIO`): measured
 /// on 2026-12-04, spot 0.1 m tall (ratio 350 / 700 / 2100 for Y = 50 / 100 / 300 kN/m) took
@@ -107,19 +108,20 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
 /// scenarios at 0.5 m (ratio 14) take 10–30.
 const STIFF_RATIO: f64 = 1000.0;
 
-/// What to say of a solve that did not converge on a fabric very stiff for its mold.
-fn stiff_hint(cfg: &Config, input: &Input) -> String {
+/// What to say of a solve that did not converge on a fabric very stiff for its mold: Y / (p H),
+/// p the largest pressure, H the mold's height (Y / (ρ g H²) when filled to the top).
+fn stiff_hint(cfg: &Config, input: &Input, s: &clothcast_sim::SimStats) -> String {
     let (lo, hi) =
         input.mesh.positions().iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p.dot(&input.up)), hi.max(p.dot(&input.up)))
         });
-    let load = cfg.infill.density * 9.81 * (hi - lo).powi(2);
-    let ratio = cfg.material.youngs_modulus / load;
-    if !(ratio > STIFF_RATIO) {
+    let ratio = cfg.material.youngs_modulus / (s.pressure_max_pa * (hi - lo));
+    if !(ratio > STIFF_RATIO) || !ratio.is_finite() {
         return String::new();
     }
     format!(
-        "; the fabric is very stiff for so small a mold (youngs_modulus / (ρ g H²) = {ratio:.0}): it barely \
+        "; the fabric is very stiff for so small a mold (youngs_modulus / (p H) = {ratio:.0}, p the largest \
+         pressure, H the mold's height): it barely \
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): [solver] \
          max_iterations = 1000 helps"
@@ -190,7 +192,7 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             s.residual_rel,
             cfg.solver.tolerance,
             // Where the force sits means nothing on a mold that ran off.
-            if runaway { String::new() } else { residual_site(s, input) + &stiff_hint(cfg, input) }
+            if runaway { String::new() } else { residual_site(s, input) + &stiff_hint(cfg, input, s) }
         );
         if runaway {
             // No iteration count or damping brings this back: the scenario has no equilibrium
