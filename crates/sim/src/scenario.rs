@@ -696,6 +696,26 @@ fn simulate_with_rest(
     let mut stiffness_stages = Vec::new();
     let mut history = Vec::new();
     let mut iterations = 0;
+    // The coarse start (large meshes), for the first solve: the first stage's, or the fine one.
+    let uses_coarse = sc
+        .coarse
+        .filter(|co| rest.is_none() && material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2);
+    let coarse_for = |mat: &dyn Material, start: &[Vec3]| {
+        uses_coarse.map(|co| {
+            let pb = Problem {
+                mesh,
+                material: mat,
+                loads: &loads,
+                constraints: &constraints,
+                supports: &sc.supports,
+                start,
+                barrier,
+                opts: &sc.newton,
+            };
+            coarse_start(&pb, co.ratio)
+        })
+    };
+    let mut coarse = None;
     for &factor in stages.iter().filter(|&&f| f < 1.0) {
         let soft = Scaled { inner: material, factor };
         let mut sys = System::new(mesh, &soft, loads.clone(), &constraints, sc.supports.clone(), barrier);
@@ -703,7 +723,14 @@ fn simulate_with_rest(
             max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
             ..sc.newton.clone()
         };
-        let res = solve(&mut sys, start, &opts, progress)?;
+        let first = stiffness_stages.is_empty();
+        if first {
+            coarse = coarse_for(&soft, &start);
+        }
+        let res = match (first, &mut coarse) {
+            (true, Some((Some(x), st))) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
+            _ => solve(&mut sys, start, &opts, progress)?,
+        };
         let converged = res.termination == Termination::Converged;
         tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
         stiffness_stages.push(StiffnessStage { factor, newton_iterations: res.stats.iterations, converged });
@@ -711,28 +738,9 @@ fn simulate_with_rest(
         history.extend(res.history);
         start = res.positions;
     }
-    let mut coarse = sc
-        .coarse
-        .filter(|co| {
-            rest.is_none()
-                && stages.is_empty()
-                && material.is_uniform()
-                && mesh.n_faces() >= co.min_faces
-                && co.ratio >= 2
-        })
-        .map(|co| {
-            let pb = Problem {
-                mesh,
-                material,
-                loads: &loads,
-                constraints: &constraints,
-                supports: &sc.supports,
-                start: &start,
-                barrier,
-                opts: &sc.newton,
-            };
-            coarse_start(&pb, co.ratio)
-        });
+    if stiffness_stages.is_empty() {
+        coarse = coarse_for(material, &start);
+    }
     let Sewn { elements, bars, .. } =
         rest.unwrap_or_else(|| Sewn { elements: Element::for_mesh(mesh), start: None, bars: Vec::new() });
     let mut sys =
@@ -744,9 +752,10 @@ fn simulate_with_rest(
         max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
         ..sc.newton.clone()
     };
-    // (A sewn mold has no coarse start.)
-    let mut res = match &mut coarse {
-        Some((Some(x), st)) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
+    // (A sewn mold has no coarse start; after stiffness stages the last one's equilibrium is
+    // the start.)
+    let mut res = match (stiffness_stages.is_empty(), &mut coarse) {
+        (true, Some((Some(x), st))) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
         _ => solve(&mut sys, start, &opts, progress)?,
     };
     if !stiffness_stages.is_empty() {
