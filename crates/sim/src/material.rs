@@ -215,9 +215,10 @@ impl Material for WrinklingStVenantKirchhoff {
 /// buckled yarns made Newton's tail linear (the sewn fertility: 137 and over 200 iterations
 /// against 54 and 40 with the exact term throughout); projected until the relative residual is
 /// 3·10⁻², the check's solves on eight meshes (the example, fertility, bunny, spot, torus,
-/// camelhead, sphere, cylinder) at 0.3 / 0.5 / 1 m took 414 / 316 / 179 iterations against
-/// 470 / 369 / 189 with the exact term throughout (10⁻²: 414 / 322 / 178; 10⁻¹: 349 at 0.5 m;
-/// 10⁻³: 394), kitten's 91 against 105 (35.8 against 37.7 s).
+/// camelhead, sphere, cylinder) at 0.3 / 0.5 / 1 m took 414 / 312 / 179 iterations against
+/// 470 / 369 / 189 with the exact term throughout (in the trial that chose it, 316 at 0.5 m;
+/// 10⁻²: 414 / 322 / 178; 10⁻¹: 349 at 0.5 m; 10⁻³: 394), kitten's 93 against 105 (36.3
+/// against 37.7 s).
 pub const WOVEN_EXACT_TAIL: f64 = 3e-2;
 
 /// A woven fabric as two families of yarns, warp along the material frame's first axis and

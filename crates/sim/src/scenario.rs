@@ -285,6 +285,10 @@ pub struct SimStats {
     /// Vertices of the start (the target, or a sewn mold's start) on or behind a support
     /// (within [`SUPPORT_REACH`] of the mold's extent), which the solve started in front of it.
     pub start_lifted_vertices: usize,
+    /// The fabric's stiffness against its load: its reference stiffness over the largest
+    /// pressure at the start times the mold's height (Y / (ρ g H²) when filled to the top; 0
+    /// without pressure). Above [`CONTINUATION_RATIO`] the mold is solved in stages.
+    pub stiffness_ratio: f64,
     /// The stiffness continuation of a fabric very stiff for its mold (empty without): each
     /// stage's share of the fabric's stiffness and its Newton iterations, the last at the full
     /// stiffness ([`CONTINUATION_RATIO`]). `newton_iterations` counts them all.
@@ -515,6 +519,20 @@ pub(crate) fn contact_barrier(mesh: &Mesh, p_max: f64, material: &dyn Material) 
     Barrier { dhat, kappa: (p_max * a_v).max(material.reference_stiffness() * dhat * 1e-6) / (1.19 * dhat) }
 }
 
+/// Solve from the coarse start's positions when it gave some, else from `start`.
+fn solve_from(
+    sys: &mut System<'_>,
+    coarse: Option<&mut (Option<Vec<Vec3>>, CoarseStats)>,
+    start: Vec<Vec3>,
+    opts: &NewtonOptions,
+    progress: &mut dyn FnMut(&IterationReport),
+) -> Result<NewtonResult, SolveError> {
+    match coarse {
+        Some((Some(x), st)) => solve_from_coarse(sys, std::mem::take(x), st, start, opts, progress),
+        _ => solve(sys, start, opts, progress),
+    }
+}
+
 /// The fine solve from the coarse start `x`; if it fails, again from the target with the
 /// iterations that are left (the allowance is for the whole solve). `st` records which.
 fn solve_from_coarse(
@@ -688,11 +706,8 @@ fn simulate_with_rest(
     };
     // A fabric very stiff for its mold: stages of growing stiffness (not for a sewn mold, which
     // starts from stage 1's equilibrium).
-    let stages = if rest.is_none() && p_max > 0.0 {
-        stiffness_stages(material.reference_stiffness() / (p_max * (top - low)))
-    } else {
-        Vec::new()
-    };
+    let stiffness_ratio = if p_max > 0.0 { material.reference_stiffness() / (p_max * (top - low)) } else { 0.0 };
+    let stages = if rest.is_none() { stiffness_stages(stiffness_ratio) } else { Vec::new() };
     let mut stiffness_stages = Vec::new();
     let mut history = Vec::new();
     let mut iterations = 0;
@@ -715,22 +730,20 @@ fn simulate_with_rest(
             coarse_start(&pb, co.ratio)
         })
     };
+    // Each solve may take the iterations the ones before it left.
+    let left = |used: usize| NewtonOptions {
+        max_iterations: sc.newton.max_iterations.saturating_sub(used).max(1),
+        ..sc.newton.clone()
+    };
     let mut coarse = None;
     for &factor in stages.iter().filter(|&&f| f < 1.0) {
         let soft = Scaled { inner: material, factor };
         let mut sys = System::new(mesh, &soft, loads.clone(), &constraints, sc.supports.clone(), barrier);
-        let opts = NewtonOptions {
-            max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
-            ..sc.newton.clone()
-        };
         let first = stiffness_stages.is_empty();
         if first {
             coarse = coarse_for(&soft, &start);
         }
-        let res = match (first, &mut coarse) {
-            (true, Some((Some(x), st))) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
-            _ => solve(&mut sys, start, &opts, progress)?,
-        };
+        let res = solve_from(&mut sys, coarse.as_mut().filter(|_| first), start, &left(iterations), progress)?;
         let converged = res.termination == Termination::Converged;
         tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
         stiffness_stages.push(StiffnessStage { factor, newton_iterations: res.stats.iterations, converged });
@@ -738,7 +751,8 @@ fn simulate_with_rest(
         history.extend(res.history);
         start = res.positions;
     }
-    if stiffness_stages.is_empty() {
+    let direct = stiffness_stages.is_empty();
+    if direct {
         coarse = coarse_for(material, &start);
     }
     let Sewn { elements, bars, .. } =
@@ -748,17 +762,10 @@ fn simulate_with_rest(
     if !bars.is_empty() {
         sys.set_bars(bars);
     }
-    let opts = NewtonOptions {
-        max_iterations: sc.newton.max_iterations.saturating_sub(iterations).max(1),
-        ..sc.newton.clone()
-    };
     // (A sewn mold has no coarse start; after stiffness stages the last one's equilibrium is
     // the start.)
-    let mut res = match (stiffness_stages.is_empty(), &mut coarse) {
-        (true, Some((Some(x), st))) => solve_from_coarse(&mut sys, std::mem::take(x), st, start, &opts, progress)?,
-        _ => solve(&mut sys, start, &opts, progress)?,
-    };
-    if !stiffness_stages.is_empty() {
+    let mut res = solve_from(&mut sys, coarse.as_mut().filter(|_| direct), start, &left(iterations), progress)?;
+    if !direct {
         stiffness_stages.push(StiffnessStage {
             factor: 1.0,
             newton_iterations: res.stats.iterations,
@@ -864,6 +871,7 @@ fn simulate_with_rest(
         solver: res.stats,
         coarse_start: coarse,
         start_lifted_vertices,
+        stiffness_ratio,
         stiffness_stages,
         seconds: t0.elapsed().as_secs_f64(),
     };

@@ -151,8 +151,8 @@ pub struct System<'a> {
     /// loop reads the positions in about vertex order. Any order gives the same sums: each
     /// slot still sums its entries in face order, and so does the gradient.
     face_store: Vec<u32>,
-    /// The Hessian's geometric term taken exactly even where the material asks for its
-    /// positive part ([`System::set_exact_geometric`]).
+    /// The Hessian's geometric term taken exactly, not at the stress's positive part
+    /// ([`System::set_exact_geometric`]).
     exact_geometric: bool,
 }
 

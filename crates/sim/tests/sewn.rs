@@ -164,7 +164,11 @@ fn indefinite_woven_steps_trust_single_precision_after_confirmations() {
     let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
     let scale = 0.5 / mesh.bbox().extent().z;
     mesh.set_positions(mesh.positions().map(|x| x * scale));
-    let fabric = ExactThroughout(WovenFabric::new(6.0e4, 2.0e4, 1.0e3).unwrap());
+    let fabric = common::Tweaked {
+        inner: WovenFabric::new(6.0e4, 2.0e4, 1.0e3).unwrap(),
+        reference_stiffness: None,
+        exact_geometric_below: Some(f64::INFINITY),
+    };
     let rest: FaceData<[Vector2<f64>; 3]> = patterns(&mesh, |c, _| Vec3::z() + Vec3::new(c.y, -c.x, 0.0) * 4.0)
         .iter()
         .map(|t| t.map(|q| Vector2::new(q.x * 1.05, q.y)))
@@ -186,30 +190,5 @@ fn indefinite_woven_steps_trust_single_precision_after_confirmations() {
     assert_eq!(d.stats.newton_iterations, s.stats.newton_iterations);
     for (a, b) in d.history.iter().zip(&s.history) {
         assert_eq!((a.damping, a.step), (b.damping, b.step));
-    }
-}
-
-/// A material whose Hessian Newton takes with the exact geometric term from the start.
-struct ExactThroughout<M>(M);
-
-impl<M: clothcast_sim::material::Material> clothcast_sim::material::Material for ExactThroughout<M> {
-    fn response(
-        &self,
-        face: clothcast_mesh::FaceId,
-        e: &nalgebra::Vector3<f64>,
-    ) -> clothcast_sim::material::MaterialResponse {
-        self.0.response(face, e)
-    }
-    fn energy(&self, face: clothcast_mesh::FaceId, e: &nalgebra::Vector3<f64>) -> f64 {
-        self.0.energy(face, e)
-    }
-    fn reference_stiffness(&self) -> f64 {
-        self.0.reference_stiffness()
-    }
-    fn is_uniform(&self) -> bool {
-        self.0.is_uniform()
-    }
-    fn exact_geometric_below(&self) -> f64 {
-        f64::INFINITY
     }
 }

@@ -93,3 +93,33 @@ pub fn measured_cylinder_stretches(positions: &[Vec3], around: usize, rad: f64, 
     };
     (0.5 * (radius(&a, ca) + radius(&b, cb)) / rad, (cb - ca).norm() / (len * 12.0 / 60.0))
 }
+
+/// A material as `inner`, with its reference stiffness or the residual below which Newton
+/// takes the geometric term exactly set by the test (None: the inner material's).
+pub struct Tweaked<M> {
+    pub inner: M,
+    pub reference_stiffness: Option<f64>,
+    pub exact_geometric_below: Option<f64>,
+}
+
+impl<M: clothcast_sim::material::Material> clothcast_sim::material::Material for Tweaked<M> {
+    fn response(
+        &self,
+        face: clothcast_mesh::FaceId,
+        e: &nalgebra::Vector3<f64>,
+    ) -> clothcast_sim::material::MaterialResponse {
+        self.inner.response(face, e)
+    }
+    fn energy(&self, face: clothcast_mesh::FaceId, e: &nalgebra::Vector3<f64>) -> f64 {
+        self.inner.energy(face, e)
+    }
+    fn reference_stiffness(&self) -> f64 {
+        self.reference_stiffness.unwrap_or_else(|| self.inner.reference_stiffness())
+    }
+    fn is_uniform(&self) -> bool {
+        self.inner.is_uniform()
+    }
+    fn exact_geometric_below(&self) -> f64 {
+        self.exact_geometric_below.unwrap_or_else(|| self.inner.exact_geometric_below())
+    }
+}
