@@ -118,6 +118,7 @@ fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     assert_mentions(&msg, "below the level the relative residual");
     assert_mentions(&msg, "head_pressure");
     assert_mentions(&msg, "max_iterations = 2000");
+    assert_mentions(&msg, "model = \"stvk\"");
     run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);
     let sim = &summary(&out)["simulation"];
     let site = &sim["largest_residual"];

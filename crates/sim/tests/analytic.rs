@@ -284,6 +284,14 @@ fn plain_stvk_converges_with_the_exact_geometric_term_in_its_tail() {
     assert!(r.stats.converged, "{:?} after {} iterations", r.stats.termination, r.stats.newton_iterations);
     assert!(r.stats.newton_iterations <= 100, "{} iterations", r.stats.newton_iterations);
     common::assert_energy_never_rises(&r.history);
+    // Filled to a fifth of its height, where the tension-field model creeps on the fabric
+    // hanging above the liquid (76 iterations here; 15 of 33 partial fills within 200), plain
+    // StVK, which that fabric's compression holds, converges (27 iterations).
+    let sc = Scenario { fill_level: FillLevel::Height(0.1), ..Default::default() };
+    let r = simulate(&shapes::rounded_tetrahedron(0.5), &mat, &sc, &mut |_| {}).unwrap();
+    assert!(r.stats.converged, "{:?} after {} iterations", r.stats.termination, r.stats.newton_iterations);
+    assert!(r.stats.newton_iterations <= 50, "{} iterations", r.stats.newton_iterations);
+    common::assert_energy_never_rises(&r.history);
 }
 
 /// Newton never increases the energy (built-in example and a bag on a floor); contact holds;
