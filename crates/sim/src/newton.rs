@@ -71,6 +71,10 @@ pub struct NewtonOptions {
     pub relax_fraction: f64,
     /// The damping matrix M of the damped step `(H + μM) d = −g`.
     pub damping: Damping,
+    /// Relative residual to which a step is solved with a single-precision factor (or the
+    /// Newton residual, when smaller): [`SINGLE_STEP_TOLERANCE`], or the looser
+    /// [`SEWN_STEP_TOLERANCE`] for the check's solve.
+    pub single_step_tolerance: f64,
 }
 
 impl Default for NewtonOptions {
@@ -85,6 +89,7 @@ impl Default for NewtonOptions {
             relax_sweeps: 10,
             relax_fraction: 0.9,
             damping: Damping::Laplacian,
+            single_step_tolerance: SINGLE_STEP_TOLERANCE,
         }
     }
 }
@@ -187,7 +192,7 @@ impl DampingMatrix {
 ///
 /// A single-precision factor moves half the bytes and does twice the arithmetic per SIMD
 /// instruction; the step is then solved in double precision by conjugate gradients
-/// preconditioned with it, to a relative residual of [`SINGLE_STEP_TOLERANCE`] (or the Newton
+/// preconditioned with it, to a relative residual of [`NewtonOptions::single_step_tolerance`] (or the Newton
 /// residual, when smaller): each step solves the same system as the direct solve, to that
 /// residual (on kitten the 111 iterations and their energies, to 7 digits, were those of the
 /// direct solve). Where the single-precision factorization fails (a pivot lost to round-off,
@@ -225,6 +230,17 @@ pub const SPLIT_MIN_FACTOR_LEN: usize = 2_000_000;
 /// change kitten's Newton path (1e-5: 144 iterations, 1e-3: 131, against 111 with exact
 /// steps); at 1e-7 kitten's path and count were those of the direct solve.
 pub const SINGLE_STEP_TOLERANCE: f64 = 1e-7;
+
+/// [`NewtonOptions::single_step_tolerance`] of the check's solve (the sewn woven mold, stage 6,
+/// set by the CLI), whose damping, raised wherever the compressed yarns make the Hessian
+/// indefinite, shapes its path more than the steps' last digits do. Measured on 2026-12-04
+/// (check iterations, conjugate-gradient iterations, seconds): kitten at its own size 93, 333,
+/// 35.7–37.7 s with 10⁻⁷ (three runs; a fourth, in a slow minute, 42.8 s); 89, 239, 31.9–34.7
+/// s with 10⁻⁵; 104, 168, 34.2–36.0 s with 10⁻³. At 0.5 m: kitten 92 → 79 iterations, 39.2 →
+/// 31.6 s; bunny_hr 82 → 72, 13.5 → 14.2 s. The smaller meshes factor in double precision
+/// (no change); spot and camelhead, in single, 43 and 103 → 43 and 107. Stage 1 stays at
+/// 10⁻⁷: with 10⁻³ kitten took 19 iterations instead of 17 and was no faster.
+pub const SEWN_STEP_TOLERANCE: f64 = 1e-5;
 
 /// Conjugate-gradient iterations allowed with a single-precision factor before the step is
 /// solved in double precision (kitten needs 2.8 on average).
@@ -589,7 +605,7 @@ pub fn solve(
                 let ts = Instant::now();
                 let f = &factor;
                 if single {
-                    let tol = SINGLE_STEP_TOLERANCE.min(r) * gnorm;
+                    let tol = opts.single_step_tolerance.min(r) * gnorm;
                     let res = pcg(
                         sys.pattern(),
                         &vals,

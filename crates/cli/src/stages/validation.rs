@@ -347,6 +347,8 @@ pub fn run(
     // Where each segmented vertex lies on the target (they all lie on it).
     let on_target: Vec<ClosestHit> = seg.mesh.positions().iter().map(|p| cp.query(p)).collect();
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
+    // Its steps solved less exactly than stage 1's (see the constant).
+    sc.newton.single_step_tolerance = clothcast_sim::newton::SEWN_STEP_TOLERANCE;
     if cfg.suspension.mode == SuspensionMode::Vertices {
         // The clamped target vertices, on the segmented mesh (every target vertex is one of
         // its), and the vertices the segmentation inserted on an edge between two of them (a
