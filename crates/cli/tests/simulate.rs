@@ -107,6 +107,18 @@ fn a_fabric_very_stiff_for_its_mold_is_named_when_the_solve_does_not_converge() 
 }
 
 #[test]
+fn a_plain_stvk_solve_that_does_not_converge_names_the_tension_field_model() {
+    let out = tmpdir("nonconv-stvk");
+    let msg = run_configured("simulate", &out, "[material]\nmodel = \"stvk\"\n[solver]\nmax_iterations = 5\n", &[], 1);
+    assert_mentions(&msg, "did not converge");
+    assert_mentions(&msg, "model = \"tension-field\"");
+    assert!(!msg.contains("model = \"stvk\""), "{msg}");
+    // The tension-field model's message does not name itself.
+    let msg = run_configured("simulate", &out, "[solver]\nmax_iterations = 5\n", &[], 1);
+    assert!(!msg.contains("model = \"tension-field\""), "{msg}");
+}
+
+#[test]
 fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     // The built-in example (0.5 m) filled to 0.1 m: the fabric above the liquid hangs slack or
     // wrinkled, and 15 iterations leave most of the residual there (it converges in 76).
