@@ -115,7 +115,8 @@ impl Material for StVenantKirchhoff {
 /// The energy is C¹ across the regions, the stress is always positive semi-definite, and the
 /// tangent `Y P1⊗P1 + Y e1/(e1−e2) (P1 dE P2 + P2 dE P1)` (P_i the eigenprojectors) is PSD,
 /// so Newton needs no projection and converges where plain StVK, whose compressed regions are
-/// saddles (the membrane would buckle), crawls (2–4 times the iterations).
+/// saddles (the membrane would buckle), crawls (over 24 solves of eight meshes at three
+/// heights, 1409 iterations against 565).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WrinklingStVenantKirchhoff {
     /// The underlying StVK parameters.

@@ -76,7 +76,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
 
 /// Where a solve that did not converge left its largest unbalanced force, and what that
 /// usually means, for its message ("" when there is nothing to say).
-fn residual_site(s: &clothcast_sim::SimStats, input: &Input, model: MaterialModel) -> String {
+fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     let Some(site) = &s.largest_residual else { return String::new() };
     // The input file's vertex, as in the other messages (summary.json keeps deformed.ply's).
     let vertex = input.input_vertex(VertexId::new(site.vertex)).idx();
@@ -87,7 +87,7 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, model: MaterialMode
     if let Some(r) = s.residual_rel_below_level {
         out += &format!("; below the level the relative residual is {r:.1e}");
     }
-    if site.height_above_level_m.is_some_and(|h| h > 0.0) {
+    if above_level(s) {
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
         // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; with 2000
         // iterations allowed, those filled to half their height or more in 145-1465 (README).
@@ -95,16 +95,14 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, model: MaterialMode
                 determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a \
                 higher fill_level helps, or more iterations (molds filled to half their height or more have \
                 converged within 2000: [solver] max_iterations = 2000)";
-        // Measured on 2026-12-04 (eleven meshes filled to 0.1, 0.25 and 0.35 m of 0.5 m): plain
-        // StVK converged 28 of the 33 partial fills within 200 iterations (7-139), the
-        // tension-field model 15; their equilibria differ (bunny at 0.35 m: largest
-        // displacement 0.09 m against 0.23 m), so it is named as another model, not a fix.
-        if model == MaterialModel::TensionField {
-            out += "; or the plain St. Venant-Kirchhoff model ([material] model = \"stvk\"), which converges on \
-                    most partial fills but lets the fabric carry compression, so that its mold hangs differently";
-        }
     }
     out
+}
+
+/// The largest unbalanced force of a solve that did not converge sits above the liquid (a
+/// partial fill's unloaded fabric).
+fn above_level(s: &clothcast_sim::SimStats) -> bool {
+    s.largest_residual.as_ref().and_then(|site| site.height_above_level_m).is_some_and(|h| h > 0.0)
 }
 
 /// A fabric stiffer than this against its load (`simulation.stiffness_ratio`: Y / (p H), p the
@@ -116,15 +114,24 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, model: MaterialMode
 /// scenarios at 0.5 m (ratio 14) take 11–59 on eight meshes.
 const STIFF_RATIO: f64 = 1000.0;
 
-/// What to say of a plain StVK solve that did not converge: its compressed fabric is a saddle
-/// of the energy, where Newton can stall (a fuzz case: an open box held at its rim, 1 m tall,
-/// filled to 0.45 m, 1 MN/m: 6·10⁻² after 200 iterations; the tension-field model 67).
-fn model_hint(model: MaterialModel) -> &'static str {
+/// The other membrane model, where it may converge: for plain StVK, whose compressed fabric is
+/// a saddle of the energy where Newton can stall, the tension-field model (a fuzz case: an open
+/// box held at its rim, 1 m tall, filled to 0.45 m, 1 MN/m: plain StVK 6·10⁻² after 200
+/// iterations; the tension-field model 67); for the tension-field model creeping on a partial
+/// fill's unloaded fabric, plain StVK (measured on 2026-12-04, eleven meshes filled to 0.1, 0.25
+/// and 0.35 m of 0.5 m: plain StVK converged 28 of the 33 within 200 iterations (7-139), the
+/// tension-field model 15; their equilibria differ, bunny at 0.35 m: largest displacement
+/// 0.09 m against 0.23 m, so it is named as another model, not a fix).
+fn model_hint(s: &clothcast_sim::SimStats, model: MaterialModel) -> &'static str {
     match model {
         MaterialModel::Stvk => {
             "; plain StVK lets the fabric carry compression, where its energy has saddles (a membrane \
              buckles) and Newton can stall: the default tension-field model ([material] model = \
              \"tension-field\"), in which such fabric wrinkles instead, converges more readily"
+        }
+        MaterialModel::TensionField if above_level(s) => {
+            "; the plain St. Venant-Kirchhoff model ([material] model = \"stvk\") converges on most partial \
+             fills, but lets the fabric carry compression, so that its mold hangs differently"
         }
         MaterialModel::TensionField => "",
     }
@@ -213,7 +220,7 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             if runaway {
                 String::new()
             } else {
-                residual_site(s, input, cfg.material.model) + &stiff_hint(s) + model_hint(cfg.material.model)
+                residual_site(s, input) + &stiff_hint(s) + model_hint(s, cfg.material.model)
             }
         );
         if runaway {
