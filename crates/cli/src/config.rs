@@ -520,9 +520,18 @@ pub enum SuspensionMode {
 #[serde(deny_unknown_fields)]
 pub struct Support {
     /// A point on the plane (metres, mesh frame after scaling).
+    #[serde(deserialize_with = "exactly_three")]
     pub point: [f64; 3],
     /// Normal pointing to the side where the fabric is.
+    #[serde(deserialize_with = "exactly_three")]
     pub normal: [f64; 3],
+}
+
+/// A 3-vector that must be given with exactly three numbers: serde's `[f64; 3]` reads the first
+/// three elements of a TOML array and ignores the rest, which would drop a mistyped fourth.
+fn exactly_three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| serde::de::Error::invalid_length(v.len(), &"an array of 3 numbers"))
 }
 
 /// `[solver]`
@@ -714,9 +723,31 @@ impl Config {
         if !(hp.is_finite() && hp.abs() <= 1e8) {
             return Err(err("infill", "head_pressure", show(hp), "must be finite, at most 1e8 Pa either way"));
         }
+        if hp < 0.0 && self.infill.density == 0.0 {
+            return Err(err(
+                "infill",
+                "head_pressure",
+                show(hp),
+                "is a suction with no liquid ([infill] density = 0): a fabric cannot hold it, the mold would collapse; give a positive pressure or a liquid",
+            ));
+        }
         positive("suspension", "band", self.suspension.band)?;
         if self.suspension.mode == SuspensionMode::Vertices && self.suspension.vertices.is_empty() {
             return Err(err("suspension", "vertices", "[]".into(), "mode = \"vertices\" needs at least one vertex"));
+        }
+        if self.suspension.mode != SuspensionMode::Vertices && !self.suspension.vertices.is_empty() {
+            let mode = match self.suspension.mode {
+                SuspensionMode::TopBand => "top-band",
+                SuspensionMode::Boundary => "boundary",
+                SuspensionMode::None => "none",
+                SuspensionMode::Vertices => "vertices",
+            };
+            return Err(err(
+                "suspension",
+                "vertices",
+                format!("{} vertices", self.suspension.vertices.len()),
+                &format!("are given but mode = \"{mode}\" does not use them; set mode = \"vertices\" to clamp them"),
+            ));
         }
         for (i, s) in self.supports.iter().enumerate() {
             if s.point.iter().any(|c| !c.is_finite()) {
@@ -926,6 +957,20 @@ mod tests {
         }
         let c = Config::from_toml("[pattern]\nmax_qc_mean = inf\nmax_area_spread = 8\n", "p").unwrap();
         assert_eq!((c.pattern.max_qc_mean, c.pattern.max_area_spread), (f64::INFINITY, 8.0));
+    }
+
+    #[test]
+    fn fuzzed_scenarios_are_refused_by_name() {
+        let e = Config::from_toml("[[supports]]\npoint = [0, 0, -1, 7]\nnormal = [0, 0, 1]\n", "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("invalid length 4"), "{e}");
+        assert!(Config::from_toml("[[supports]]\npoint = [0, 0, -1]\nnormal = [0, 0, 1]\n", "s").is_ok());
+        let e = Config::from_toml("[suspension]\nvertices = [1, 2]\n", "v.toml").unwrap_err().to_string();
+        assert!(e.contains("suspension.vertices") && e.contains("top-band"), "{e}");
+        let e = Config::from_toml("[infill]\ndensity = 0\nhead_pressure = -1000\n", "h.toml").unwrap_err().to_string();
+        assert!(e.contains("infill.head_pressure") && e.contains("suction"), "{e}");
+        assert!(Config::from_toml("[infill]\nhead_pressure = -1000\n", "h").is_ok());
     }
 
     #[test]

@@ -34,5 +34,6 @@ pub use bff::{BffOptions, BffProblem, BoundaryRelief, Flattening, FlatteningStat
 pub use error::FlattenError;
 pub use pieces::{
     DistortionLimits, FlatPatch, FlatPieces, FlattenOptions, FlattenReport, Orientation, OutlineRepair,
-    PieceFlattening, PieceReport, SeamRun, WarpAlong, flatten_piece, flatten_segmentation, outline_crossing,
+    PieceFlattening, PieceReport, SeamRun, WarpAlong, convex_flattening, flatten_piece, flatten_segmentation,
+    outline_crossing,
 };

@@ -666,6 +666,9 @@ pub enum OutlineRepair {
         /// The smoothing used.
         smoothing: f64,
     },
+    /// Neither made it simple: the piece mapped onto a disk ([`convex_flattening`]), simple
+    /// and unfolded by construction, but distorted.
+    Convex,
 }
 
 /// Flattens one disk-shaped piece by BFF ([`bff_flatten`](crate::bff::bff_flatten)). Flipped
@@ -762,6 +765,12 @@ pub fn flatten_piece(pm: &Mesh, bff: &BffOptions, limits: &DistortionLimits) -> 
             flat = f2;
             repaired_vertices += moved;
             outline_repair = Some(how);
+        } else if let Some(f2) = convex_flattening(pm, &outline)
+            && f2.stats.flipped_triangles == 0
+            && outline_crossing(&f2.uv, &outline).is_none()
+        {
+            flat = f2;
+            outline_repair = Some(OutlineRepair::Convex);
         }
     }
     let outline_simple = crossing.is_none() || outline_repair.is_some();
@@ -795,9 +804,89 @@ const RELIEF_FRACTIONS: [f64; 20] =
 /// [`BffOptions::boundary_smoothing`]; the last ones are nearly a circle).
 const OUTLINE_SMOOTHING: [f64; 12] = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 1.0];
 
-/// The first pair of outline edges that cross or touch in the layout `uv` (edge i joins
-/// outline vertices i and i + 1), `None` for a simple outline.
+/// The last resort for an outline that no re-flattening makes simple (a patch of a mold far
+/// too soft for its load, where BFF's boundary curve loops over itself however its curvature is
+/// relieved): Tutte's embedding, every interior vertex at the mean of its neighbours, with the
+/// outline on a circle, each boundary edge taking the share of the perimeter its 3D length
+/// takes of the boundary's. With a convex outline and positive weights no triangle folds and the
+/// outline cannot cross itself (Tutte 1963; Floater 2003), so the piece can be cut and its seams
+/// keep their lengths (up to chord against arc); it is distorted, as its statistics and the
+/// distortion warnings then say. `None` if the outline has no length or the solve fails.
+pub fn convex_flattening(pm: &Mesh, outline: &[VertexId]) -> Option<Flattening> {
+    use clothcast_mesh::sparse::{CholeskySolver, SymmetricPattern};
+    use std::f64::consts::TAU;
+    let n = outline.len();
+    let lens: Vec<f64> = (0..n).map(|k| (pm.position(outline[(k + 1) % n]) - pm.position(outline[k])).norm()).collect();
+    let total: f64 = lens.iter().sum();
+    if n < 3 || !(total > 0.0 && total.is_finite()) {
+        return None;
+    }
+    let radius = total / TAU;
+    let mut uv: VertexData<Vec2> = VertexData::from_vec(vec![Vec2::zeros(); pm.n_vertices()]);
+    let mut on_outline = vec![false; pm.n_vertices()];
+    let mut s = 0.0;
+    for (k, &v) in outline.iter().enumerate() {
+        let a = TAU * s / total;
+        uv[v] = Vec2::new(radius * a.cos(), radius * a.sin());
+        on_outline[v.idx()] = true;
+        s += lens[k];
+    }
+    let interior: Vec<VertexId> = pm.vertices().filter(|v| !on_outline[v.idx()]).collect();
+    if !interior.is_empty() {
+        let mut index = vec![usize::MAX; pm.n_vertices()];
+        for (i, v) in interior.iter().enumerate() {
+            index[v.idx()] = i;
+        }
+        let rings: Vec<Vec<VertexId>> = interior.iter().map(|&v| pm.vertex_neighbors(v)).collect();
+        let pattern = SymmetricPattern::from_entries(
+            interior.len(),
+            rings.iter().enumerate().flat_map(|(i, ring)| {
+                let index = &index;
+                ring.iter().filter(|u| index[u.idx()] != usize::MAX).map(move |u| (i, index[u.idx()]))
+            }),
+        );
+        let mut values = vec![0.0; pattern.nnz()];
+        let (mut bx, mut by) = (vec![0.0; interior.len()], vec![0.0; interior.len()]);
+        for (i, ring) in rings.iter().enumerate() {
+            values[pattern.slot(i, i)] = ring.len() as f64;
+            for &u in ring {
+                match index[u.idx()] {
+                    usize::MAX => {
+                        bx[i] += uv[u].x;
+                        by[i] += uv[u].y;
+                    }
+                    j if j < i => values[pattern.slot(i, j)] = -1.0,
+                    _ => {}
+                }
+            }
+        }
+        let factor = CholeskySolver::new(&pattern).ok()?.factor(&pattern, &values).ok()?;
+        factor.solve_in_place(&mut bx);
+        factor.solve_in_place(&mut by);
+        for (i, &v) in interior.iter().enumerate() {
+            uv[v] = Vec2::new(bx[i], by[i]);
+        }
+    }
+    // The circle runs the way the outline does; the faces must keep their orientation.
+    if distortion(pm, &uv).area_ratio < 0.0 {
+        for v in pm.vertices() {
+            uv[v].y = -uv[v].y;
+        }
+    }
+    let stats = distortion(pm, &uv);
+    Some(Flattening { uv, stats })
+}
+
+/// The first pair of outline edges that cross, touch or come within a hair of each other in the
+/// layout `uv` (edge i joins outline vertices i and i + 1), `None` for a simple outline.
 pub fn outline_crossing(uv: &VertexData<Vec2>, outline: &[VertexId]) -> Option<(usize, usize)> {
     let poly: Vec<[f64; 2]> = outline.iter().map(|&v| [uv[v].x, uv[v].y]).collect();
-    clothcast_mesh::polygon::find_self_intersection(&poly)
+    // With a margin of 10⁻⁹ of the perimeter: an outline that only just misses itself here
+    // could cross once the piece is turned onto the warp and written in millimetres.
+    let eps = OUTLINE_MARGIN * clothcast_mesh::polygon::perimeter(&poly);
+    clothcast_mesh::polygon::find_self_intersection_within(&poly, eps)
 }
+
+/// The margin by which a flattened outline must miss itself, relative to its perimeter
+/// ([`outline_crossing`]).
+const OUTLINE_MARGIN: f64 = 1e-9;

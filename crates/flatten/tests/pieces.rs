@@ -225,3 +225,31 @@ fn a_self_crossing_outline_is_made_simple() {
     assert!(fine.outline_simple && fine.outline_repair.is_none() && !fine.retried);
     assert_eq!(fine.flattening.uv, direct.uv);
 }
+
+/// The last-resort flattening of a piece whose outline no re-flattening makes simple: on a
+/// sheared, curved open cylinder (a disk once cut), every triangle positive, the outline simple
+/// with the margin, its perimeter kept to the chord-against-arc error.
+#[test]
+fn the_convex_fallback_is_simple_and_unfolded() {
+    let cyl = shapes::cylinder(0.2, 0.3, 24, 8, false, false);
+    // Cut the cylinder open along the faces of one column: keep a disk (the faces away from
+    // angle 0).
+    let keep: Vec<clothcast_mesh::FaceId> = cyl
+        .face_ids()
+        .filter(|&f| {
+            let c = cyl.face_vertices(f).map(|v| cyl.position(v)).iter().fold(Vec3::zeros(), |a, p| a + p) / 3.0;
+            c.y.atan2(c.x).abs() > 0.2
+        })
+        .collect();
+    let pm = clothcast_mesh::submesh::extract_submesh(&cyl, &keep).unwrap().mesh;
+    assert_eq!(pm.boundary_loops().len(), 1);
+    let outline: Vec<clothcast_mesh::VertexId> = pm.boundary_loops()[0].iter().map(|&h| pm.tail(h)).collect();
+    let flat = clothcast_flatten::convex_flattening(&pm, &outline).expect("a disk flattens");
+    assert_eq!(flat.stats.flipped_triangles, 0, "{:?}", flat.stats);
+    assert!(flat.stats.area_ratio_min > 0.0);
+    assert!(clothcast_flatten::outline_crossing(&flat.uv, &outline).is_none());
+    let n = outline.len();
+    let len3: f64 = (0..n).map(|k| (pm.position(outline[(k + 1) % n]) - pm.position(outline[k])).norm()).sum();
+    let len2: f64 = (0..n).map(|k| (flat.uv[outline[(k + 1) % n]] - flat.uv[outline[k]]).norm()).sum();
+    assert!((len2 / len3 - 1.0).abs() < 0.01, "{len2} vs {len3}");
+}

@@ -225,6 +225,14 @@ pub fn segments_intersect(a: P2, b: P2, c: P2, d: P2) -> bool {
 /// onto each other (collinear, opposite directions) count as intersecting. `None` for a
 /// simple polygon. Edge `i` runs from vertex `i` to vertex `i + 1`.
 pub fn find_self_intersection(poly: &[P2]) -> Option<(usize, usize)> {
+    find_self_intersection_within(poly, 0.0)
+}
+
+/// [`find_self_intersection`] with a margin: edges closer than `eps` count as touching, and
+/// consecutive edges folding back to within a relative 10⁻¹² of collinear as a fold. A layout
+/// that passes with a margin stays simple when it is rotated or scaled (an outline that only
+/// just misses itself can cross once rounded in another frame).
+pub fn find_self_intersection_within(poly: &[P2], eps: f64) -> Option<(usize, usize)> {
     let n = poly.len();
     if n < 3 {
         return None;
@@ -236,7 +244,8 @@ pub fn find_self_intersection(poly: &[P2]) -> Option<(usize, usize)> {
         let (_, c) = seg((i + 1) % n);
         let u = sub(b, a);
         let v = sub(c, b);
-        if (cross(u, v) == 0.0 && dot(u, v) < 0.0) || a == b {
+        let folded = cross(u, v).abs() <= if eps > 0.0 { 1e-12 * norm(u) * norm(v) } else { 0.0 };
+        if (folded && dot(u, v) < 0.0) || a == b {
             let j = (i + 1) % n;
             return Some((i.min(j), i.max(j)));
         }
@@ -244,15 +253,15 @@ pub fn find_self_intersection(poly: &[P2]) -> Option<(usize, usize)> {
     let mut order: Vec<(f64, usize)> = (0..n)
         .map(|i| {
             let (a, b) = seg(i);
-            (a[0].min(b[0]), i)
+            (a[0].min(b[0]) - eps, i)
         })
         .collect();
     order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     let mut best: Option<(usize, usize)> = None;
     for (k, &(_, i)) in order.iter().enumerate() {
         let (a, b) = seg(i);
-        let max_x = a[0].max(b[0]);
-        let (min_y, max_y) = (a[1].min(b[1]), a[1].max(b[1]));
+        let max_x = a[0].max(b[0]) + eps;
+        let (min_y, max_y) = (a[1].min(b[1]) - eps, a[1].max(b[1]) + eps);
         for &(min_x_j, j) in &order[k + 1..] {
             if min_x_j > max_x {
                 break;
@@ -265,7 +274,15 @@ pub fn find_self_intersection(poly: &[P2]) -> Option<(usize, usize)> {
             if c[1].max(d[1]) < min_y || c[1].min(d[1]) > max_y {
                 continue;
             }
-            if segments_intersect(a, b, c, d) {
+            let near = || {
+                eps > 0.0
+                    && dist_point_segment(a, c, d)
+                        .min(dist_point_segment(b, c, d))
+                        .min(dist_point_segment(c, a, b))
+                        .min(dist_point_segment(d, a, b))
+                        < eps
+            };
+            if segments_intersect(a, b, c, d) || near() {
                 let pair = (i.min(j), i.max(j));
                 // Report the lexicographically first pair: deterministic and readable.
                 if best.is_none_or(|bp| pair < bp) {
@@ -313,6 +330,15 @@ pub fn segment_inside(a: P2, b: P2, poly: &[P2]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_margin_catches_an_outline_that_only_just_misses_itself() {
+        // A notch whose tip comes within 1e-12 of the opposite edge.
+        let poly = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 1e-12], [0.9, 1.0], [0.0, 1.0]];
+        assert_eq!(find_self_intersection(&poly), None);
+        assert!(find_self_intersection_within(&poly, 1e-9).is_some());
+        assert_eq!(find_self_intersection_within(&poly, 1e-13), None);
+    }
 
     #[test]
     fn area_centroid_square() {

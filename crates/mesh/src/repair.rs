@@ -236,6 +236,16 @@ pub fn prepare(soup: &TriSoup, opts: &RepairOptions) -> Result<Prepared, MeshErr
             (0..soup.triangles.len() as u32).collect(),
         )
     };
+    if opts.repair && soup2.triangles.is_empty() && !soup.triangles.is_empty() {
+        return Err(MeshError::Invalid {
+            problems: vec![Problem::NothingLeftAfterRepair {
+                faces: soup.triangles.len(),
+                non_finite: report.faces_with_non_finite_vertices_removed,
+                degenerate: report.degenerate_faces_removed,
+                duplicate: report.duplicate_faces_removed,
+            }],
+        });
+    }
     let problems: Vec<Problem> = analyze(&soup2).problems;
     if !problems.is_empty() {
         // Named in the input file's numbering (welding, removals and splits renumber).
@@ -435,4 +445,27 @@ pub(crate) fn compact(soup: &TriSoup) -> (TriSoup, Vec<u32>) {
     let tris = soup.triangles.iter().map(|t| t.map(|v| new_of_old[v as usize])).collect();
     let positions = new_to_old.iter().map(|&v| soup.positions[v as usize]).collect();
     (TriSoup::from_triangles(positions, tris), new_to_old)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_repair_that_drops_every_face_says_so() {
+        // A tetrahedron flattened onto a line: every face degenerate.
+        let soup = TriSoup::from_triangles(
+            vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(3.0, 0.0, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]],
+        );
+        let opts = RepairOptions { repair: true, ..Default::default() };
+        let Err(e) = prepare(&soup, &opts) else { panic!("a mesh with no area left was accepted") };
+        let e = e.to_string();
+        assert!(e.contains("dropped all 4 faces") && e.contains("4 degenerate"), "{e}");
+    }
 }

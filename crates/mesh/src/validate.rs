@@ -27,6 +27,17 @@ pub const ZERO_AREA_REL: f64 = 1e-14;
 pub enum Problem {
     /// The mesh has no faces.
     Empty,
+    /// The file held faces, but the repair dropped every one of them.
+    NothingLeftAfterRepair {
+        /// Faces in the file.
+        faces: usize,
+        /// Of them, dropped for a vertex with a non-finite coordinate.
+        non_finite: usize,
+        /// Dropped as degenerate (a repeated vertex, or zero area once welded).
+        degenerate: usize,
+        /// Dropped as duplicates.
+        duplicate: usize,
+    },
     /// A coordinate is NaN, infinite, or beyond ±[`crate::soup::MAX_COORDINATE`].
     NonFiniteCoordinate {
         /// The vertex.
@@ -47,6 +58,8 @@ pub enum Problem {
         vertices: [VertexId; 3],
         /// Its area.
         area: f64,
+        /// The area a face must exceed: `ZERO_AREA_REL` times the squared bounding-box diagonal.
+        limit: f64,
     },
     /// A face uses the same three vertices as an earlier face.
     DuplicateFace {
@@ -106,13 +119,13 @@ impl Problem {
     pub fn renumbered(self, vertex: impl Fn(VertexId) -> VertexId, face: impl Fn(FaceId) -> FaceId) -> Problem {
         use Problem as P;
         match self {
-            P::Empty | P::MultipleComponents { .. } => self,
+            P::Empty | P::NothingLeftAfterRepair { .. } | P::MultipleComponents { .. } => self,
             P::NonFiniteCoordinate { vertex: v } => P::NonFiniteCoordinate { vertex: vertex(v) },
             P::RepeatedVertexInFace { face: f, vertices } => {
                 P::RepeatedVertexInFace { face: face(f), vertices: vertices.map(&vertex) }
             }
-            P::ZeroAreaFace { face: f, vertices, area } => {
-                P::ZeroAreaFace { face: face(f), vertices: vertices.map(&vertex), area }
+            P::ZeroAreaFace { face: f, vertices, area, limit } => {
+                P::ZeroAreaFace { face: face(f), vertices: vertices.map(&vertex), area, limit }
             }
             P::DuplicateFace { face: f, duplicate_of, vertices } => {
                 P::DuplicateFace { face: face(f), duplicate_of: face(duplicate_of), vertices: vertices.map(&vertex) }
@@ -133,6 +146,7 @@ impl Problem {
     pub fn kind(&self) -> &'static str {
         match self {
             Problem::Empty => "empty",
+            Problem::NothingLeftAfterRepair { .. } => "nothing_left_after_repair",
             Problem::NonFiniteCoordinate { .. } => "non_finite_coordinate",
             Problem::RepeatedVertexInFace { .. } => "repeated_vertex_in_face",
             Problem::ZeroAreaFace { .. } => "zero_area_face",
@@ -150,6 +164,9 @@ impl Problem {
     pub fn remedy(&self) -> &'static str {
         match self {
             Problem::Empty => "the file holds no triangles",
+            Problem::NothingLeftAfterRepair { .. } => {
+                "not repairable: no face of the file spans an area (check the coordinates and the file's units)"
+            }
             Problem::NonManifoldEdge { .. } => {
                 "not repairable automatically: fix the model so every edge has at most two faces"
             }
@@ -170,6 +187,11 @@ impl fmt::Display for Problem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Problem::Empty => write!(f, "the mesh has no faces"),
+            Problem::NothingLeftAfterRepair { faces, non_finite, degenerate, duplicate } => write!(
+                f,
+                "the repair dropped all {faces} faces of the file ({non_finite} with a non-finite coordinate, \
+                 {degenerate} degenerate, {duplicate} duplicates)"
+            ),
             Problem::NonFiniteCoordinate { vertex } => {
                 write!(
                     f,
@@ -180,8 +202,13 @@ impl fmt::Display for Problem {
             Problem::RepeatedVertexInFace { face, vertices } => {
                 write!(f, "face {face} (vertices {}) uses a vertex twice", vs(vertices))
             }
-            Problem::ZeroAreaFace { face, vertices, area } => {
-                write!(f, "face {face} (vertices {}) has zero area ({area:.3e})", vs(vertices))
+            Problem::ZeroAreaFace { face, vertices, area, limit } => {
+                write!(
+                    f,
+                    "face {face} (vertices {}) has (numerically) zero area: {area:.3e}, not above {limit:.3e} \
+                     (10⁻¹⁴ of the squared bounding-box diagonal)",
+                    vs(vertices)
+                )
             }
             Problem::DuplicateFace { face, duplicate_of, vertices } => {
                 write!(f, "face {face} duplicates face {duplicate_of} (vertices {})", vs(vertices))
@@ -336,7 +363,7 @@ pub fn analyze(soup: &TriSoup) -> SoupAnalysis {
             let p = t.map(|v| soup.positions[v as usize]);
             let area = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
             if !(area > area_eps) {
-                problems.push(Problem::ZeroAreaFace { face: FaceId::new(f), vertices: vids, area });
+                problems.push(Problem::ZeroAreaFace { face: FaceId::new(f), vertices: vids, area, limit: area_eps });
             }
         }
     }

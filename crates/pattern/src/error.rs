@@ -154,7 +154,10 @@ pub enum PatternError {
         expected: &'static str,
     },
     /// A seam would get an unreasonable number of notches (spacing too small for its length).
-    #[error("seam {seam}: {count} notches at the given spacing (the limit is {limit}); increase notch_spacing_mm")]
+    #[error(
+        "seam {seam}: {} notches at the given spacing (the limit is {limit}); increase notch_spacing_mm",
+        if *.count < 1e9 { format!("{:.0}", .count) } else { format!("{:.2e}", .count) }
+    )]
     TooManyNotches {
         /// Seam id.
         seam: usize,

@@ -737,13 +737,18 @@ fn simulate_with_rest(
     };
     let mut coarse = None;
     for &factor in stages.iter().filter(|&&f| f < 1.0) {
+        // The iteration limit counts every stage, the last one's at least one: once the rest
+        // is spent, the last stage follows.
+        if iterations + 1 >= sc.newton.max_iterations {
+            break;
+        }
         let soft = Scaled { inner: material, factor };
         let mut sys = System::new(mesh, &soft, loads.clone(), &constraints, sc.supports.clone(), barrier);
         let first = stiffness_stages.is_empty();
         if first {
             coarse = coarse_for(&soft, &start);
         }
-        let res = solve_from(&mut sys, coarse.as_mut().filter(|_| first), start, &left(iterations), progress)?;
+        let res = solve_from(&mut sys, coarse.as_mut().filter(|_| first), start, &left(iterations + 1), progress)?;
         let converged = res.termination == Termination::Converged;
         tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
         stiffness_stages.push(StiffnessStage { factor, newton_iterations: res.stats.iterations, converged });

@@ -26,9 +26,12 @@ pub fn dispatch(cli: &Cli) -> Result<(), Failure> {
         Command::Bench(a) => bench::bench(a, &progress),
         Command::Example(a) => write_example(&a.out, &progress),
         Command::Config(a) => match &a.out {
-            Some(p) => write_atomic(p, |w| std::io::Write::write_all(w, TEMPLATE.as_bytes()))
-                .with_context(|| format!("cannot write {}", p.display()))
-                .internal(),
+            Some(p) => {
+                check_output_file(p)?;
+                write_atomic(p, |w| std::io::Write::write_all(w, TEMPLATE.as_bytes()))
+                    .with_context(|| format!("cannot write {}", p.display()))
+                    .internal()
+            }
             None => {
                 print!("{TEMPLATE}");
                 Ok(())
@@ -89,10 +92,27 @@ pub fn repair_options(m: &MeshArgs) -> RepairOptions {
     RepairOptions { repair: m.repair, largest_component: m.largest_component, ..Default::default() }
 }
 
+/// An output file's path is the user's to fix (exit 2) when it names a directory or a
+/// directory that does not exist; a write that fails there is the machine's (exit 1).
+fn check_output_file(p: &Path) -> Result<(), Failure> {
+    if p.is_dir() {
+        return Err(Failure::Input(anyhow!("the output path {} is a directory; name a file", p.display())));
+    }
+    match p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(d) if !d.is_dir() => {
+            Err(Failure::Input(anyhow!("cannot write {}: the directory {} does not exist", p.display(), d.display())))
+        }
+        _ => Ok(()),
+    }
+}
+
 fn write_example(out: &Path, progress: &Progress) -> Result<(), Failure> {
     let mesh = clothcast_mesh::shapes::rounded_tetrahedron(crate::input::EXAMPLE_HEIGHT);
     let soup = mesh.to_soup();
     let ext = out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    if matches!(ext.as_deref(), Some("obj" | "ply")) {
+        check_output_file(out)?;
+    }
     let header = "clothcast built-in example: rounded tetrahedron, 0.5 m tall along +z, units m";
     let result = match ext.as_deref() {
         Some("obj") => write_atomic(out, |w| write_obj(w, header, &soup.positions, &soup.triangles, None, None)),

@@ -144,9 +144,10 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
     if !(ratio > STIFF_RATIO) {
         return String::new();
     }
+    let shown = if ratio < 1e7 { format!("{ratio:.0}") } else { format!("{ratio:.2e}") };
     format!(
-        "; the fabric is very stiff for so small a mold (youngs_modulus / (p H) = {ratio:.0}, p the largest \
-         pressure, H the mold's height): it barely \
+        "; the fabric is very stiff for so small a mold (its stiffness over p H = {shown}: Y / (1 - ν²) for an \
+         isotropic fabric, the stiffer yarn's for a woven one, p the largest pressure, H the mold's height): it barely \
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): [solver] \
          max_iterations = 1000 helps"

@@ -107,12 +107,27 @@ pub fn read_off(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
         }
         soup.push_polygon(&corners);
     }
+    if let Some((l, _)) = lines.next() {
+        return Err(malformed(
+            l,
+            format!(
+                "data after the {nv} vertices and {nf} faces the header announces (are the header's counts right?)"
+            ),
+        ));
+    }
     Ok(soup)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refuses_faces_beyond_the_header_count() {
+        let txt = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n";
+        let e = read_off(txt.as_bytes(), "x.off").unwrap_err().to_string();
+        assert!(e.contains("x.off") && e.contains("x.off:7") && e.contains("1 faces the header announces"), "{e}");
+    }
 
     #[test]
     fn reads_polygons_and_counts_on_header_line() {

@@ -34,8 +34,20 @@ pub fn read_stl(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
                 bytes.len()
             ),
         }),
+        Some(n) if bytes.len() - (84 + 50 * n) >= 50 => Err(MeshError::Malformed {
+            path: name.into(),
+            line: None,
+            message: format!(
+                "binary STL header announces {n} triangles ({} bytes), but the file has {} bytes: room for {} \
+                 more triangles the header does not count (is its count wrong?)",
+                84 + 50 * n,
+                bytes.len(),
+                (bytes.len() - 84 - 50 * n) / 50
+            ),
+        }),
         Some(n) => {
-            // Trailing bytes after the announced triangles: tolerated (some exporters pad).
+            // Fewer trailing bytes than a triangle's after the announced ones: tolerated (some
+            // exporters pad).
             read_binary(&bytes[..84 + 50 * n], n)
         }
         None => Err(MeshError::Truncated {
@@ -177,6 +189,19 @@ mod tests {
         assert_eq!(s.triangles, vec![[0, 1, 2], [1, 3, 2]]);
         let e = read_stl(&b[..b.len() - 7], "b.stl").unwrap_err();
         assert!(matches!(e, MeshError::Truncated { .. }), "{e}");
+    }
+
+    #[test]
+    fn binary_with_uncounted_triangles_is_refused() {
+        let t = [[[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]], [[1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]];
+        let mut b = binary(&t, b"header");
+        b[80..84].copy_from_slice(&1u32.to_le_bytes());
+        let e = read_stl(&b, "b.stl").unwrap_err().to_string();
+        assert!(e.contains("announces 1 triangles") && e.contains("room for 1 more"), "{e}");
+        // A few bytes of padding stay tolerated.
+        let mut p = binary(&t, b"header");
+        p.extend([0u8; 10]);
+        assert_eq!(read_stl(&p, "b.stl").unwrap().triangles.len(), 2);
     }
 
     #[test]
