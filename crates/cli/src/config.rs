@@ -601,7 +601,7 @@ pub enum FactorPrecision {
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// Could not read the file.
-    #[error("cannot read config {path}: {source}")]
+    #[error("cannot read config {path}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -695,6 +695,7 @@ impl Config {
         };
         if let Some(h) = self.mesh.height {
             positive("mesh", "height", h)?;
+            at_most("mesh", "height", h, 1e4, "m: a mold at most 10 km tall")?;
         }
         if self.mesh.min_faces > MAX_MIN_FACES {
             return Err(err("mesh", "min_faces", self.mesh.min_faces.to_string(), "must be at most 4000000"));

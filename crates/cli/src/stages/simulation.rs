@@ -228,12 +228,21 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             // No iteration count or damping brings this back: the scenario has no equilibrium
             // the solve can reach (tet.obj 3 m tall of a fabric of 1000 N/m: the mold had moved
             // 1400 km after 42 iterations).
+            let times = s.max_displacement_m / size;
+            let times = if times < 1e7 { format!("{times:.0}") } else { format!("{times:.1e}") };
+            // A Poisson ratio near -1 leaves the fabric almost no resistance to a change of area.
+            let nu = cfg.material.poisson_ratio;
+            let nu_hint = if nu < -0.5 {
+                format!(" (its poisson_ratio = {nu} leaves it little resistance to spreading: fabrics have 0–0.5)")
+            } else {
+                String::new()
+            };
             return Err(Failure::Input(anyhow!(
-                "{why}: the mold ran away under the load (it moved up to {:.1e} m, {:.0} times its own size): the \
-                 fabric is far too soft for this load, and no equilibrium was found; set [material] youngs_modulus to \
-                 the fabric's (now {:.0} N/m), lower the fill or head pressure, or hold the mold by more of it",
+                "{why}: the mold ran away under the load (it moved up to {:.1e} m, {times} times its own size): the \
+                 fabric is far too soft for this load{nu_hint}, and no equilibrium was found; set [material] \
+                 youngs_modulus to the fabric's (now {} N/m), lower the fill or head pressure, or hold the mold by more \
+                 of it",
                 s.max_displacement_m,
-                s.max_displacement_m / size,
                 cfg.material.youngs_modulus
             )));
         }

@@ -184,11 +184,21 @@ struct Wor11 {
 /// the rest row (0), their stretched ones from the rows along each yarn (1: 0°, 5: 90°), the
 /// shear modulus k3/4 from the rest row. `Err` names what is wrong.
 fn wor11_fabric(text: &str) -> Result<WovenFabric, String> {
+    // A JSON object: serde would also take a bare array as the struct's fields in order.
+    if !text.trim_start().starts_with('{') {
+        return Err("not a WOR11 fabric file: expected a JSON object with a \"stretching\" table".into());
+    }
     let t: Wor11 = serde_json::from_str(text).map_err(|e| format!("not a WOR11 fabric file: {e}"))?;
-    if t.stretching.len() != 6 || t.stretching.iter().any(|r| r.len() != 4) {
+    if t.stretching.len() != 6 {
         return Err(format!(
             "\"stretching\" must be 6 rows of 4 stiffnesses (k0 k1 k2 k3), got {} rows",
             t.stretching.len()
+        ));
+    }
+    if let Some((i, r)) = t.stretching.iter().enumerate().find(|(_, r)| r.len() != 4) {
+        return Err(format!(
+            "\"stretching\" must be 6 rows of 4 stiffnesses (k0 k1 k2 k3), row {i} has {} values",
+            r.len()
         ));
     }
     let k = |row: usize, col: usize| 2.0 * t.stretching[row][col].max(0.0);
@@ -213,6 +223,13 @@ pub fn fabric(cfg: &Config) -> Result<(WovenFabric, String), Failure> {
         let measured = wor11_fabric(&text).map_err(named)?;
         let scale =
             v.fabric_scale.unwrap_or_else(|| cfg.material.youngs_modulus / (measured.warp * measured.weft).sqrt());
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(named(format!(
+                "its warp and weft stiffnesses ({:e}, {:e} N/m) cannot be scaled to [material] youngs_modulus = {} N/m \
+                 (scale {scale:e}); is it a measured fabric?",
+                measured.warp, measured.weft, cfg.material.youngs_modulus
+            )));
+        }
         let fabric = measured.scaled(scale).map_err(named)?;
         in_range(&fabric).map_err(named)?;
         return Ok((fabric, name.clone()));
@@ -596,4 +613,20 @@ pub fn write_outputs(out: &Path, input: &Input, seg: &Segmentation, r: &Validati
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, &comment, &pos, &tris, &vattr, &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::wor11_fabric;
+
+    #[test]
+    fn wor11_files_of_the_wrong_shape_are_named() {
+        let row4 = "[1, 2, 3, 4]";
+        let rows = |r: &str| format!("{{\"stretching\": [{}]}}", [r; 6].join(", "));
+        assert!(wor11_fabric(&rows(row4)).is_ok());
+        let e = wor11_fabric(&rows("[1, 2, 3, 4, 5]")).err().unwrap();
+        assert!(e.contains("row 0 has 5 values"), "{e}");
+        let e = wor11_fabric(&format!("[[{}]]", [row4; 6].join(", "))).err().unwrap();
+        assert!(e.contains("JSON object"), "{e}");
+    }
 }

@@ -408,6 +408,19 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
     if !has_vertex {
         return Err(MeshError::Malformed { path: name.into(), line: None, message: "no `vertex` element".into() });
     }
+    let counts = || header.elements.iter().map(|(k, d)| format!("{} {k}", d.count)).collect::<Vec<_>>().join(", ");
+    let rest: &[u8] = reader.get_ref();
+    if rest.iter().any(|b| !b.is_ascii_whitespace()) {
+        return Err(MeshError::Malformed {
+            path: name.into(),
+            line: None,
+            message: format!(
+                "{} bytes of data after the elements the header announces ({}): are its counts right?",
+                rest.len(),
+                counts()
+            ),
+        });
+    }
     let nv = soup.positions.len();
     let mut corners = Vec::new();
     for (f, poly) in polygons.iter().enumerate() {
@@ -415,7 +428,11 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
             return Err(MeshError::Malformed {
                 path: name.into(),
                 line: None,
-                message: format!("face {f} has {} vertices; at least 3 are needed", poly.len()),
+                message: format!(
+                    "face {f} has {} vertices; at least 3 are needed (the header announces {}: are its counts right?)",
+                    poly.len(),
+                    counts()
+                ),
             });
         }
         corners.clear();
@@ -496,6 +513,19 @@ mod tests {
             assert_eq!(props["face"]["patch"], vec![3.0, 7.0]);
             assert_eq!(props["face"]["anisotropic"], vec![1.0, 0.0]);
         }
+    }
+
+    #[test]
+    fn data_beyond_the_header_counts_is_refused() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n\
+                    element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        // Four vertices under a count of two: the last two are read as the face and a surplus.
+        let text = format!("{head}0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n");
+        let e = read_ply(text.as_bytes(), "c.ply").unwrap_err().to_string();
+        assert!(e.contains("c.ply") && e.contains("2 vertex, 1 face") && e.contains("counts right"), "{e}");
+        // Trailing blank lines are fine.
+        let ok = format!("{}\n\n", head.replace("vertex 2", "vertex 3") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2");
+        assert_eq!(read_ply(ok.as_bytes(), "c.ply").unwrap().triangles.len(), 1);
     }
 
     #[test]
