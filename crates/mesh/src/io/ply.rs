@@ -332,10 +332,61 @@ fn read_header<'a>(bytes: &'a [u8], name: &str) -> Result<(Reader<&'a [u8]>, Hea
     Ok((reader, header))
 }
 
+/// An ASCII PLY line holding more values than its element's properties: refused with its line
+/// (`ply-rs-bw` reads the values it expects from each line and drops the rest, so a face
+/// `3 0 2 1 5 5` or a vertex with a fourth coordinate would pass unseen). Lines it cannot
+/// count (a list length that is not a number) are left to the parser, which names them.
+fn check_ascii_lines(bytes: &[u8], header: &Header, name: &str) -> Result<(), MeshError> {
+    // The body starts after the line `end_header`.
+    let (mut start, mut first_line) = (0, 1);
+    loop {
+        let Some(k) = bytes[start..].iter().position(|&b| b == b'\n') else { return Ok(()) };
+        let line = &bytes[start..start + k];
+        start += k + 1;
+        first_line += 1;
+        if line.trim_ascii() == b"end_header" {
+            break;
+        }
+    }
+    let body_start = start;
+    let text = String::from_utf8_lossy(&bytes[body_start..]);
+    let mut lines = text.lines().enumerate().map(|(i, l)| (first_line + i, l)).filter(|(_, l)| !l.trim().is_empty());
+    for (key, def) in &header.elements {
+        for i in 0..def.count {
+            let Some((line, l)) = lines.next() else { return Ok(()) };
+            let tokens: Vec<&str> = l.split_ascii_whitespace().collect();
+            let mut used = 0;
+            for prop in def.properties.values() {
+                match prop.data_type {
+                    PropertyType::Scalar(_) => used += 1,
+                    PropertyType::List(..) => {
+                        let Some(n) = tokens.get(used).and_then(|t| t.parse::<usize>().ok()) else { return Ok(()) };
+                        used += 1 + n;
+                    }
+                }
+            }
+            if tokens.len() > used {
+                return Err(MeshError::Malformed {
+                    path: name.into(),
+                    line: Some(line),
+                    message: format!(
+                        "{key} {i} has {} values where its properties hold {used}: are the header's counts and properties right?",
+                        tokens.len()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Parse a PLY file (ASCII, binary little or big endian): `vertex` x, y, z (any numeric type)
 /// and `face` `vertex_indices`/`vertex_index` lists; other elements and properties are skipped.
 pub fn read_ply(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
     let (mut reader, header) = read_header(bytes, name)?;
+    if header.encoding == ply_rs_bw::ply::Encoding::Ascii {
+        check_ascii_lines(bytes, &header, name)?;
+    }
     let mut soup = TriSoup::default();
     let mut polygons: Vec<Vec<i64>> = Vec::new();
     let mut has_vertex = false;
@@ -522,7 +573,15 @@ mod tests {
         // Four vertices under a count of two: the last two are read as the face and a surplus.
         let text = format!("{head}0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n");
         let e = read_ply(text.as_bytes(), "c.ply").unwrap_err().to_string();
-        assert!(e.contains("c.ply") && e.contains("2 vertex, 1 face") && e.contains("counts right"), "{e}");
+        assert!(e.contains("c.ply:12") && e.contains("face 0 has 3 values") && e.contains("counts"), "{e}");
+        // Binary, or the surplus on lines of the right length: the bytes left over are named.
+        let text = format!("{}0 0 0\n1 0 0\n3 0 1 0\n3 0 1 0\n", head);
+        let e = read_ply(text.as_bytes(), "c.ply").unwrap_err().to_string();
+        assert!(e.contains("2 vertex, 1 face") && e.contains("counts right"), "{e}");
+        // A face with two values too many, on line 12.
+        let text = format!("{}0 0 0\n1 0 0\n0 1 0\n3 0 1 2 5 5\n", head.replace("vertex 2", "vertex 3"));
+        let e = read_ply(text.as_bytes(), "x.ply").unwrap_err().to_string();
+        assert!(e.contains("x.ply:13") && e.contains("face 0 has 6 values where its properties hold 4"), "{e}");
         // Trailing blank lines are fine.
         let ok = format!("{}\n\n", head.replace("vertex 2", "vertex 3") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2");
         assert_eq!(read_ply(ok.as_bytes(), "c.ply").unwrap().triangles.len(), 1);
