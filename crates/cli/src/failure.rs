@@ -44,3 +44,12 @@ impl<T, E: Into<anyhow::Error>> Blame<T> for Result<T, E> {
         self.map_err(|e| Failure::Internal(e.into()))
     }
 }
+
+/// A message with its control characters (other than line breaks and tabs) escaped: a path or
+/// value quoted from the input may hold a NUL or an escape sequence the terminal should not get.
+pub fn printable(message: &str) -> String {
+    message
+        .chars()
+        .map(|c| if c.is_control() && c != '\n' && c != '\t' { c.escape_default().to_string() } else { c.to_string() })
+        .collect()
+}

@@ -54,7 +54,7 @@ fn main() -> ExitCode {
         Ok(Err(f)) => {
             match &f {
                 failure::Failure::Input(e) | failure::Failure::Internal(e) => {
-                    eprintln!("error: {}", printable(&format!("{e:#}")))
+                    eprintln!("error: {}", failure::printable(&format!("{e:#}")))
                 }
                 failure::Failure::Reported(_) => {}
             }
@@ -64,19 +64,10 @@ fn main() -> ExitCode {
     }
 }
 
-/// A message with its control characters (other than line breaks and tabs) escaped: a path or
-/// value quoted from the input may hold a NUL or an escape sequence the terminal should not get.
-fn printable(message: &str) -> String {
-    message
-        .chars()
-        .map(|c| if c.is_control() && c != '\n' && c != '\t' { c.escape_default().to_string() } else { c.to_string() })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     #[test]
     fn control_characters_are_escaped_in_messages() {
-        assert_eq!(super::printable("a\0b\x1b[31m\nc\td"), "a\\u{0}b\\u{1b}[31m\nc\td");
+        assert_eq!(crate::failure::printable("a\0b\x1b[31m\nc\td"), "a\\u{0}b\\u{1b}[31m\nc\td");
     }
 }

@@ -138,6 +138,9 @@ pub struct FlatPatch {
     pub fiber_deviation_median_deg: f64,
     /// Share of the field's major direction nearer the warp than the weft ([`FlattenReport`]).
     pub major_on_warp_share: f64,
+    /// Flattened by the last resort, [`convex_flattening`] ([`OutlineRepair::Convex`]): left
+    /// out of the common area scale, whose BFF layouts it would shrink.
+    pub convex_fallback: bool,
 }
 
 /// One side of a seam on a piece: a run of its outline.
@@ -194,7 +197,8 @@ pub struct FlattenReport {
     pub intrinsic_delaunay: usize,
     /// Pieces whose flattened outline crossed itself and was made simple ([`flatten_piece`]).
     pub outlines_repaired: usize,
-    /// Pieces whose outline still crosses itself (the pattern stage refuses them).
+    /// Pieces whose outline still crosses itself or nearly touches itself (within 10⁻⁹ of its
+    /// perimeter; the pattern stage refuses those that cross).
     pub outlines_not_simple: usize,
     /// Patch ids of the pieces whose flattening is badly distorted: an area-weighted mean
     /// quasi-conformal ratio above [`DistortionLimits::qc_mean`] (default [`DISTORTED_QC_MEAN`]),
@@ -334,10 +338,18 @@ pub fn flatten_segmentation(
                 "flattened patch has flipped triangles"
             );
         }
+        let convex = piece.outline_repair == Some(OutlineRepair::Convex);
         match (piece.outline_repair, piece.outline_simple) {
             (_, false) => {
                 report.outlines_not_simple += 1;
                 tracing::warn!(patch = p, "flattened outline crosses itself");
+            }
+            (Some(OutlineRepair::Convex), true) => {
+                report.outlines_repaired += 1;
+                tracing::warn!(
+                    "patch {p}: no re-flattening gave a simple outline; the piece is mapped onto a disk instead \
+                     (cuttable, but distorted: its seams keep their lengths, its inside does not)"
+                );
             }
             (Some(how), true) => {
                 report.outlines_repaired += 1;
@@ -406,11 +418,14 @@ pub fn flatten_segmentation(
             stats,
             fiber_deviation_median_deg: dev,
             major_on_warp_share: share(on_warp, weight),
+            convex_fallback: convex,
         });
     }
     // Totals.
     let total_area: f64 = patches.iter().map(|q| q.mesh.total_area()).sum();
-    let flat_area: f64 = patches.iter().map(|q| q.stats.area_ratio * q.mesh.total_area()).sum();
+    // (A disk-mapped piece counts as its 3D area: its circle's area says nothing of BFF's shrink.)
+    let flat_area: f64 =
+        patches.iter().map(|q| if q.convex_fallback { 1.0 } else { q.stats.area_ratio } * q.mesh.total_area()).sum();
     report.area_ratio_bff = flat_area / total_area.max(1e-300);
     report.area_scale = 1.0;
     if opts.match_area && flat_area > 0.0 {
@@ -682,7 +697,9 @@ pub enum OutlineRepair {
 /// boundary curvature smoothed ([`BffOptions::boundary_smoothing`]). The curve is closed by turning
 /// ([`BffOptions::exact_lengths`]), so the boundary lengths are kept and the seams still match
 /// (should that closing fail, the best-fit curve changes them by up to a few percent near the
-/// loop); the triangles along the loop take the distortion.
+/// loop); the triangles along the loop take the distortion. Should neither make it simple, the
+/// piece is mapped onto a disk ([`convex_flattening`], [`OutlineRepair::Convex`]). Simple means
+/// missing itself by 10⁻⁹ of the perimeter ([`outline_crossing`]).
 ///
 /// # Errors
 /// Those of [`bff_flatten`](crate::bff::bff_flatten) on the first flattening.
@@ -807,21 +824,26 @@ const OUTLINE_SMOOTHING: [f64; 12] = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 
 /// The last resort for an outline that no re-flattening makes simple (a patch of a mold far
 /// too soft for its load, where BFF's boundary curve loops over itself however its curvature is
 /// relieved): Tutte's embedding, every interior vertex at the mean of its neighbours, with the
-/// outline on a circle, each boundary edge taking the share of the perimeter its 3D length
-/// takes of the boundary's. With a convex outline and positive weights no triangle folds and the
-/// outline cannot cross itself (Tutte 1963; Floater 2003), so the piece can be cut and its seams
-/// keep their lengths (up to chord against arc); it is distorted, as its statistics and the
-/// distortion warnings then say. `None` if the outline has no length or the solve fails.
+/// outline on a circle, each boundary edge taking the share of the circle its 3D length takes
+/// of the boundary's, the radius such that the chords add up to the boundary's length. With a
+/// convex outline and positive weights no triangle folds and the outline cannot cross itself
+/// (Tutte 1963; Floater 2003), so the piece can be cut and its seams keep their total length
+/// (each edge within the chord-to-arc spread of the others); its inside is distorted. `None` if the outline has no length or the solve fails.
 pub fn convex_flattening(pm: &Mesh, outline: &[VertexId]) -> Option<Flattening> {
     use clothcast_mesh::sparse::{CholeskySolver, SymmetricPattern};
-    use std::f64::consts::TAU;
+    use std::f64::consts::{PI, TAU};
     let n = outline.len();
     let lens: Vec<f64> = (0..n).map(|k| (pm.position(outline[(k + 1) % n]) - pm.position(outline[k])).norm()).collect();
     let total: f64 = lens.iter().sum();
     if n < 3 || !(total > 0.0 && total.is_finite()) {
         return None;
     }
-    let radius = total / TAU;
+    // The radius at which the chords, not the arcs, add up to the boundary's length.
+    let chords = |r: f64| lens.iter().map(|l| 2.0 * r * (PI * l / total).sin()).sum::<f64>();
+    let radius = total / chords(1.0);
+    if !(radius.is_finite() && radius > 0.0) {
+        return None;
+    }
     let mut uv: VertexData<Vec2> = VertexData::from_vec(vec![Vec2::zeros(); pm.n_vertices()]);
     let mut on_outline = vec![false; pm.n_vertices()];
     let mut s = 0.0;

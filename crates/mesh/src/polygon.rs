@@ -250,6 +250,27 @@ pub fn find_self_intersection_within(poly: &[P2], eps: f64) -> Option<(usize, us
             return Some((i.min(j), i.max(j)));
         }
     }
+    // With a margin, two edges count as near only if the outline between them, the shorter
+    // way round, is longer than twice the margin: edges either side of a very short edge are
+    // close, and that is no pinch.
+    let cum: Vec<f64> = if eps > 0.0 {
+        std::iter::once(0.0)
+            .chain((0..n).scan(0.0, |acc, i| {
+                let (a, b) = seg(i);
+                *acc += dist(a, b);
+                Some(*acc)
+            }))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let apart = |i: usize, j: usize| {
+        // i < j: from the end of edge i to the start of edge j, or from the end of j round to
+        // the start of i.
+        let inner = cum[j] - cum[i + 1];
+        let outer = cum[n] - cum[j + 1] + cum[i];
+        inner.min(outer) > 2.0 * eps
+    };
     let mut order: Vec<(f64, usize)> = (0..n)
         .map(|i| {
             let (a, b) = seg(i);
@@ -276,6 +297,7 @@ pub fn find_self_intersection_within(poly: &[P2], eps: f64) -> Option<(usize, us
             }
             let near = || {
                 eps > 0.0
+                    && apart(i.min(j), i.max(j))
                     && dist_point_segment(a, c, d)
                         .min(dist_point_segment(b, c, d))
                         .min(dist_point_segment(c, a, b))
@@ -338,6 +360,9 @@ mod tests {
         assert_eq!(find_self_intersection(&poly), None);
         assert!(find_self_intersection_within(&poly, 1e-9).is_some());
         assert_eq!(find_self_intersection_within(&poly, 1e-13), None);
+        // A very short edge is no pinch: its neighbours are close only along the outline.
+        let short = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.5, 1.0], [0.5 - 1e-12, 1.0], [0.0, 1.0]];
+        assert_eq!(find_self_intersection_within(&short, 1e-9), None);
     }
 
     #[test]

@@ -204,7 +204,7 @@ pub fn check(args: &CheckArgs, progress: &Progress) -> Result<(), Failure> {
                 Err(e) => e.to_string(),
                 Ok(_) => inward.clone().unwrap_or_default(),
             };
-            eprintln!("error: {path} is not usable: {first}");
+            eprintln!("error: {}", crate::failure::printable(&format!("{path} is not usable: {first}")));
         }
         Err(Failure::Reported(2))
     }

@@ -99,9 +99,12 @@ fn check_output_file(p: &Path) -> Result<(), Failure> {
         return Err(Failure::Input(anyhow!("the output path {} is a directory; name a file", p.display())));
     }
     match p.parent().filter(|d| !d.as_os_str().is_empty()) {
-        Some(d) if !d.is_dir() => {
-            Err(Failure::Input(anyhow!("cannot write {}: the directory {} does not exist", p.display(), d.display())))
-        }
+        Some(d) if !d.is_dir() => Err(Failure::Input(anyhow!(
+            "cannot write {}: {} {}",
+            p.display(),
+            d.display(),
+            if d.exists() { "is not a directory" } else { "does not exist" }
+        ))),
         _ => Ok(()),
     }
 }

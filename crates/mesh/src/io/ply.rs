@@ -361,6 +361,10 @@ fn check_ascii_lines(bytes: &[u8], header: &Header, name: &str) -> Result<(), Me
                     PropertyType::Scalar(_) => used += 1,
                     PropertyType::List(..) => {
                         let Some(n) = tokens.get(used).and_then(|t| t.parse::<usize>().ok()) else { return Ok(()) };
+                        if n >= tokens.len() {
+                            // More than the line holds: the parser names it.
+                            return Ok(());
+                        }
                         used += 1 + n;
                     }
                 }
@@ -461,7 +465,8 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<TriSoup, MeshError> {
     }
     let counts = || header.elements.iter().map(|(k, d)| format!("{} {k}", d.count)).collect::<Vec<_>>().join(", ");
     let rest: &[u8] = reader.get_ref();
-    if rest.iter().any(|b| !b.is_ascii_whitespace()) {
+    // (Whitespace or NUL padding after the data is tolerated.)
+    if rest.iter().any(|&b| !b.is_ascii_whitespace() && b != 0) {
         return Err(MeshError::Malformed {
             path: name.into(),
             line: None,
