@@ -80,17 +80,18 @@ fn an_unusable_coarse_start_leaves_the_plain_solve() {
     assert!(st.note.as_deref().unwrap_or("").contains("did not converge"), "{st:?}");
     assert_eq!(c.positions.as_slice(), p.positions.as_slice());
     assert_eq!(c.stats.newton_iterations, p.stats.newton_iterations);
-    // The coarse solve converges (to its own tolerance, 10⁻⁶, in 9 iterations) but the fine one
-    // from it cannot (a tolerance of 10⁻¹⁵ is below round-off: it stalls near 5·10⁻¹³): the
-    // allowance is for the whole solve, so nothing is left for a second solve from the
-    // target, and the result is the one from the coarse start, marked.
-    let newton = NewtonOptions { max_iterations: 12, tolerance: 1e-15, ..Default::default() };
-    let (c, _) = solve_both(&mesh, &mat, &Scenario { newton, ..Default::default() });
+    // The coarse solve converges (to its own tolerance, 10⁻⁶) but the fine one from it cannot
+    // within the allowance (a partial fill, whose unloaded fabric settles slowly): the
+    // allowance is for the whole solve, so nothing is left for a second solve from the target,
+    // and the result is the one from the coarse start, marked.
+    let newton = NewtonOptions { max_iterations: 30, ..Default::default() };
+    let sc = Scenario { newton, fill_level: FillLevel::Height(0.05), ..Default::default() };
+    let (c, _) = solve_both(&mesh, &mat, &sc);
     let st = c.stats.coarse_start.as_ref().expect("tried");
-    assert!(st.converged && !c.stats.converged, "{st:?}");
-    assert_eq!(st.fine_iterations_discarded, 12, "{st:?}");
+    assert!(st.converged && !c.stats.converged, "{st:?} {:?} {}", c.stats.residual_rel, c.stats.newton_iterations);
+    assert_eq!(st.fine_iterations_discarded, 30, "{st:?}");
     assert!(st.note.as_deref().unwrap_or("").contains("no iterations left"), "{st:?}");
-    assert_eq!(c.stats.newton_iterations, 12);
+    assert_eq!(c.stats.newton_iterations, 30);
     // Below the size threshold it is not tried at all.
     let sc =
         Scenario { coarse: Some(CoarseOptions { min_faces: 10 * mesh.n_faces(), ratio: 8 }), ..Default::default() };

@@ -255,6 +255,16 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
         progress.say(format!("warning: {why}; continuing (--allow-unconverged)"));
     }
     warn_overstretched(&result, input);
+    if let Some(floor) = s.solver.round_off_floor_rel {
+        tracing::warn!(
+            "the simulation stopped at a relative residual of {:.1e}, above the tolerance {:.0e}, where it cannot be \
+             told from round-off (its floor on this mesh: {floor:.1e} of the load): sliver triangles (smallest angle \
+             {:.1e}°) make the forces sensitive to the last digit of the positions; remesh them for a tighter solve",
+            s.residual_rel,
+            cfg.solver.tolerance,
+            smallest_angle_deg(input)
+        );
+    }
     progress.say(format!(
         "simulation: {} in {} Newton iterations (residual {:.1e}), max displacement {:.2} mm, liquid {:.2} L, max pressure {:.0} Pa, {:.2} s",
         if s.converged { "converged" } else { "NOT converged" },
@@ -292,4 +302,18 @@ pub fn write_outputs(out: &Path, input: &Input, result: &SimResult) -> Result<()
     write_atomic(&path, |w| write_ply(w, PlyFormat::BinaryLittleEndian, &comment, &pos, &tris, &vattr, &fattr))
         .with_context(|| format!("cannot write {}", path.display()))
         .internal()
+}
+
+/// The smallest corner angle of the input mesh (degrees).
+fn smallest_angle_deg(input: &Input) -> f64 {
+    let m = &input.mesh;
+    m.face_ids()
+        .flat_map(|f| {
+            let p = m.face_positions(f);
+            (0..3).map(move |k| {
+                let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                a.angle(&b).to_degrees()
+            })
+        })
+        .fold(f64::INFINITY, f64::min)
 }
