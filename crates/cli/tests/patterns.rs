@@ -5,10 +5,10 @@ mod common;
 use common::*;
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// `clothcast run MESH --height H` into a fresh directory, which it returns; it must succeed.
-fn run_scaled(tag: &str, mesh: &str, height: &str, extra: &[&str]) -> PathBuf {
+fn run_scaled(tag: &str, mesh: &str, height: &str, extra: &[&str]) -> TmpDir {
     let out = tmpdir(tag);
     let mesh = data(mesh);
     let mut args = vec![mesh.to_str().unwrap(), "--height", height];
