@@ -45,8 +45,15 @@ pub struct RepairReport {
     pub faces_with_non_finite_vertices_removed: usize,
     /// Vertices welded into an earlier vertex at the same position.
     pub vertices_welded: usize,
+    /// Zero-area faces (a vertex on the opposite edge) mended by flipping that edge with the
+    /// face across it, which splits that face in two at the vertex (as dropping them would open
+    /// a slit in the surface).
+    pub zero_area_faces_flipped: usize,
     /// Faces dropped for a repeated vertex or zero area.
     pub degenerate_faces_removed: usize,
+    /// Boundary edges the dropping of degenerate faces left (holes, or slits, the input did
+    /// not have: a mold open there may spill).
+    pub boundary_edges_opened: usize,
     /// Faces dropped as duplicates.
     pub duplicate_faces_removed: usize,
     /// Faces flipped to make orientation consistent or outward.
@@ -77,7 +84,9 @@ impl RepairReport {
         };
         push(self.faces_with_non_finite_vertices_removed, "face(s) with non-finite vertices removed");
         push(self.vertices_welded, "duplicate vertex position(s) welded");
+        push(self.zero_area_faces_flipped, "zero-area face(s) mended by an edge flip");
         push(self.degenerate_faces_removed, "degenerate face(s) removed");
+        push(self.boundary_edges_opened, "boundary edge(s) left by those removals (the surface is open there now)");
         push(self.duplicate_faces_removed, "duplicate face(s) removed");
         push(self.faces_flipped, "face(s) flipped to a consistent outward orientation");
         push(self.non_manifold_vertices_split, "vertex copy(ies) added to split non-manifold vertices");
@@ -130,8 +139,15 @@ pub fn repair_soup(soup: &TriSoup, opts: &RepairOptions) -> (TriSoup, RepairRepo
         }
     }
 
-    // 3. Degenerate faces.
+    // 3. Degenerate faces: caps mended by flipping their longest edge where that leaves two
+    // faces with area, the rest (and faces with a repeated vertex) dropped.
     let area_eps = ZERO_AREA_REL * diag * diag;
+    rep.zero_area_faces_flipped = flip_caps(&mut tris, &positions, area_eps);
+    let boundary_edges = |tris: &[[u32; 3]]| {
+        let g = group_edges(tris, |_| true);
+        (0..g.n_edges()).filter(|&e| g.halfedges(e).len() == 1).count()
+    };
+    let open_before = boundary_edges(&tris);
     retain_faces(&mut tris, &mut face_src, |t| {
         let repeated = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
         let p = t.map(|v| positions[v as usize]);
@@ -142,6 +158,10 @@ pub fn repair_soup(soup: &TriSoup, opts: &RepairOptions) -> (TriSoup, RepairRepo
         }
         ok
     });
+
+    if rep.degenerate_faces_removed > 0 {
+        rep.boundary_edges_opened = boundary_edges(&tris).saturating_sub(open_before);
+    }
 
     // 4. Duplicate faces (first kept).
     {
@@ -262,6 +282,88 @@ pub fn prepare(soup: &TriSoup, opts: &RepairOptions) -> Result<Prepared, MeshErr
     }
     let mesh = Mesh::try_from_soup(&soup2)?;
     Ok(Prepared { mesh, report, vertex_to_input, face_to_input })
+}
+
+/// Mend caps, faces of (nearly) zero area whose three vertices are distinct, so that one lies on
+/// the opposite edge: flipping that edge with the face across it makes two faces, each a part
+/// of that face cut at the vertex. Done only where both parts have area, the edge is shared by
+/// exactly the two faces in opposite directions and the new edge is not already in the mesh; a
+/// cap whose neighbour is a cap itself is tried again after the others (a fan of caps along a
+/// straight line unzips from its end). Returns the number of flips.
+fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize {
+    let area = |t: &[u32; 3]| {
+        let p = t.map(|v| positions[v as usize]);
+        0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()
+    };
+    let is_cap = |t: &[u32; 3]| t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && area(t) <= area_eps;
+    let mut caps: Vec<usize> = (0..tris.len()).filter(|&f| is_cap(&tris[f])).collect();
+    if caps.is_empty() {
+        return 0;
+    }
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::with_capacity(3 * tris.len() / 2);
+    for (f, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            edges.entry(key(t[k], t[(k + 1) % 3])).or_default().push(f);
+        }
+    }
+    let mut flips = 0;
+    loop {
+        let before = flips;
+        let mut left = Vec::new();
+        for &f in &caps {
+            let t = tris[f];
+            if !is_cap(&t) {
+                continue; // mended as the face across another cap's edge
+            }
+            // The longest edge a→b (directed as in f) and the vertex m on it.
+            let k = (0..3)
+                .max_by(|&i, &j| {
+                    let len = |i: usize| (positions[t[i] as usize] - positions[t[(i + 1) % 3] as usize]).norm_squared();
+                    len(i).total_cmp(&len(j))
+                })
+                .unwrap_or(0);
+            let (a, b, m) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let (pa, pb, pm) = (positions[a as usize], positions[b as usize], positions[m as usize]);
+            let ab = pb - pa;
+            let s = (pm - pa).dot(&ab) / ab.norm_squared().max(f64::MIN_POSITIVE);
+            let across =
+                edges.get(&key(a, b)).filter(|fs| fs.len() == 2).and_then(|fs| fs.iter().copied().find(|&g| g != f));
+            let Some(g) = across else {
+                continue; // a boundary or non-manifold edge: nothing to flip with
+            };
+            let u = tris[g];
+            let Some(j) = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a) else {
+                continue; // oriented against f: left to the removal
+            };
+            let c = u[(j + 2) % 3];
+            let (nf, ng) = ([a, c, m], [c, b, m]);
+            let ok = s > 0.0
+                && s < 1.0
+                && c != m
+                && !edges.contains_key(&key(c, m))
+                && area(&nf) > area_eps
+                && area(&ng) > area_eps;
+            if !ok {
+                left.push(f);
+                continue;
+            }
+            tris[f] = nf;
+            tris[g] = ng;
+            edges.remove(&key(a, b));
+            edges.insert(key(c, m), vec![f, g]);
+            for (e, from, to) in [(key(a, c), g, f), (key(b, m), f, g)] {
+                if let Some(fs) = edges.get_mut(&e) {
+                    fs.iter_mut().filter(|h| **h == from).for_each(|h| *h = to);
+                }
+            }
+            flips += 1;
+        }
+        if flips == before || left.is_empty() {
+            return flips;
+        }
+        caps = left;
+    }
 }
 
 fn retain_faces(tris: &mut Vec<[u32; 3]>, src: &mut Vec<u32>, mut keep: impl FnMut(&[u32; 3]) -> bool) {
@@ -467,5 +569,62 @@ mod tests {
         let Err(e) = prepare(&soup, &opts) else { panic!("a mesh with no area left was accepted") };
         let e = e.to_string();
         assert!(e.contains("dropped all 4 faces") && e.contains("4 degenerate"), "{e}");
+    }
+
+    /// A tetrahedron with `m` on edge ab: one side of ab split at m (two faces), the other
+    /// side a face over ab and, between them, the cap (a, m, b) of zero area.
+    fn tetra_with_a_cap(second_cap: bool) -> TriSoup {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0), // a
+            Vec3::new(2.0, 0.0, 0.0), // b
+            Vec3::new(1.0, 2.0, 0.0), // c
+            Vec3::new(1.0, 0.7, 1.5), // d
+            Vec3::new(0.6, 0.0, 0.0), // m, on ab
+            Vec3::new(1.3, 0.0, 0.0), // m', on ab too
+        ];
+        let (a, b, c, d, m, m2) = (0, 1, 2, 3, 4, 5);
+        let mut t = vec![[a, c, d], [b, d, c], [a, d, m], [m, d, b], [a, m, b]];
+        if second_cap {
+            // Split the face over ab at m' too: the cap's neighbour is a cap itself.
+            t.extend([[b, m2, a], [a, m2, c], [m2, b, c]]);
+        } else {
+            t.push([a, b, c]);
+        }
+        TriSoup::from_triangles(p, t)
+    }
+
+    /// A cap is mended by an edge flip, so the surface stays closed (dropping it opened a hole
+    /// that made a closed mold spill).
+    #[test]
+    fn a_cap_is_flipped_away_not_dropped() {
+        let opts = RepairOptions { repair: true, ..Default::default() };
+        let prepared = prepare(&tetra_with_a_cap(false), &opts).unwrap();
+        let r = &prepared.report;
+        assert_eq!(
+            (r.zero_area_faces_flipped, r.degenerate_faces_removed, r.boundary_edges_opened),
+            (1, 0, 0),
+            "{r:?}"
+        );
+        let mesh = &prepared.mesh;
+        assert_eq!((mesh.n_faces(), mesh.boundary_loops().len()), (6, 0));
+        let eps = 1e-9;
+        assert!(mesh.face_ids().all(|f| mesh.face_area(f) > eps), "a face of zero area is left");
+        assert!(mesh.signed_volume() > 0.0, "orientation kept outward");
+    }
+
+    /// Two caps back to back over one edge cannot be flipped into area: they are dropped, and
+    /// the report says that the surface is open there now.
+    #[test]
+    fn caps_that_cannot_be_flipped_are_dropped_and_the_opening_is_reported() {
+        let opts = RepairOptions { repair: true, ..Default::default() };
+        let prepared = prepare(&tetra_with_a_cap(true), &opts).unwrap();
+        let r = &prepared.report;
+        assert_eq!(
+            (r.zero_area_faces_flipped, r.degenerate_faces_removed, r.boundary_edges_opened),
+            (0, 2, 4),
+            "{r:?}"
+        );
+        assert_eq!(prepared.mesh.boundary_loops().len(), 1);
+        assert!(r.lines().iter().any(|l| l.contains("4 boundary edge(s) left")), "{:?}", r.lines());
     }
 }
