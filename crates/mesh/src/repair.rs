@@ -16,7 +16,7 @@ use crate::error::MeshError;
 use crate::ids::{FaceId, VertexId};
 use crate::mesh::Mesh;
 use crate::soup::TriSoup;
-use crate::util::UnionFind;
+use crate::util::{UnionFind, edge_key};
 use crate::validate::{Problem, ZERO_AREA_REL, analyze, group_edges};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -143,23 +143,16 @@ pub fn repair_soup(soup: &TriSoup, opts: &RepairOptions) -> (TriSoup, RepairRepo
     // faces with area, the rest (and faces with a repeated vertex) dropped.
     let area_eps = ZERO_AREA_REL * diag * diag;
     rep.zero_area_faces_flipped = flip_caps(&mut tris, &positions, area_eps);
-    let boundary_edges = |tris: &[[u32; 3]]| {
-        let g = group_edges(tris, |_| true);
-        (0..g.n_edges()).filter(|&e| g.halfedges(e).len() == 1).count()
-    };
-    let open_before = boundary_edges(&tris);
-    retain_faces(&mut tris, &mut face_src, |t| {
-        let repeated = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
-        let p = t.map(|v| positions[v as usize]);
-        let area = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
-        let ok = !repeated && area > area_eps;
-        if !ok {
-            rep.degenerate_faces_removed += 1;
-        }
-        ok
-    });
-
-    if rep.degenerate_faces_removed > 0 {
+    let degenerate = |t: &[u32; 3]| has_repeated_vertex(t) || face_area(&positions, t) <= area_eps;
+    if tris.iter().any(degenerate) {
+        let boundary_edges = |tris: &[[u32; 3]]| {
+            let g = group_edges(tris, |_| true);
+            (0..g.n_edges()).filter(|&e| g.halfedges(e).len() == 1).count()
+        };
+        let open_before = boundary_edges(&tris);
+        let n = tris.len();
+        retain_faces(&mut tris, &mut face_src, |t| !degenerate(t));
+        rep.degenerate_faces_removed = n - tris.len();
         rep.boundary_edges_opened = boundary_edges(&tris).saturating_sub(open_before);
     }
 
@@ -291,20 +284,16 @@ pub fn prepare(soup: &TriSoup, opts: &RepairOptions) -> Result<Prepared, MeshErr
 /// cap whose neighbour is a cap itself is tried again after the others (a fan of caps along a
 /// straight line unzips from its end). Returns the number of flips.
 fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize {
-    let area = |t: &[u32; 3]| {
-        let p = t.map(|v| positions[v as usize]);
-        0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()
-    };
-    let is_cap = |t: &[u32; 3]| t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && area(t) <= area_eps;
+    let area = |t: &[u32; 3]| face_area(positions, t);
+    let is_cap = |t: &[u32; 3]| !has_repeated_vertex(t) && area(t) <= area_eps;
     let mut caps: Vec<usize> = (0..tris.len()).filter(|&f| is_cap(&tris[f])).collect();
     if caps.is_empty() {
         return 0;
     }
-    let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::with_capacity(3 * tris.len() / 2);
+    let mut edges: HashMap<u64, Vec<usize>> = HashMap::with_capacity(3 * tris.len() / 2);
     for (f, t) in tris.iter().enumerate() {
         for k in 0..3 {
-            edges.entry(key(t[k], t[(k + 1) % 3])).or_default().push(f);
+            edges.entry(edge_key(t[k], t[(k + 1) % 3])).or_default().push(f);
         }
     }
     let mut flips = 0;
@@ -327,8 +316,10 @@ fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize 
             let (pa, pb, pm) = (positions[a as usize], positions[b as usize], positions[m as usize]);
             let ab = pb - pa;
             let s = (pm - pa).dot(&ab) / ab.norm_squared().max(f64::MIN_POSITIVE);
-            let across =
-                edges.get(&key(a, b)).filter(|fs| fs.len() == 2).and_then(|fs| fs.iter().copied().find(|&g| g != f));
+            let across = edges
+                .get(&edge_key(a, b))
+                .filter(|fs| fs.len() == 2)
+                .and_then(|fs| fs.iter().copied().find(|&g| g != f));
             let Some(g) = across else {
                 continue; // a boundary or non-manifold edge: nothing to flip with
             };
@@ -341,7 +332,7 @@ fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize 
             let ok = s > 0.0
                 && s < 1.0
                 && c != m
-                && !edges.contains_key(&key(c, m))
+                && !edges.contains_key(&edge_key(c, m))
                 && area(&nf) > area_eps
                 && area(&ng) > area_eps;
             if !ok {
@@ -350,9 +341,9 @@ fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize 
             }
             tris[f] = nf;
             tris[g] = ng;
-            edges.remove(&key(a, b));
-            edges.insert(key(c, m), vec![f, g]);
-            for (e, from, to) in [(key(a, c), g, f), (key(b, m), f, g)] {
+            edges.remove(&edge_key(a, b));
+            edges.insert(edge_key(c, m), vec![f, g]);
+            for (e, from, to) in [(edge_key(a, c), g, f), (edge_key(b, m), f, g)] {
                 if let Some(fs) = edges.get_mut(&e) {
                     fs.iter_mut().filter(|h| **h == from).for_each(|h| *h = to);
                 }
@@ -364,6 +355,16 @@ fn flip_caps(tris: &mut [[u32; 3]], positions: &[Vec3], area_eps: f64) -> usize 
         }
         caps = left;
     }
+}
+
+/// The area of the triangle `t` of `positions`.
+fn face_area(positions: &[Vec3], t: &[u32; 3]) -> f64 {
+    let p = t.map(|v| positions[v as usize]);
+    0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()
+}
+
+fn has_repeated_vertex(t: &[u32; 3]) -> bool {
+    t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
 }
 
 fn retain_faces(tris: &mut Vec<[u32; 3]>, src: &mut Vec<u32>, mut keep: impl FnMut(&[u32; 3]) -> bool) {
@@ -593,18 +594,21 @@ mod tests {
         TriSoup::from_triangles(p, t)
     }
 
+    /// [`tetra_with_a_cap`] repaired, and its report's flips, drops and opened boundary edges.
+    fn repaired_tetra(second_cap: bool) -> (Prepared, [usize; 3]) {
+        let opts = RepairOptions { repair: true, ..Default::default() };
+        let prepared = prepare(&tetra_with_a_cap(second_cap), &opts).unwrap();
+        let r = &prepared.report;
+        let counts = [r.zero_area_faces_flipped, r.degenerate_faces_removed, r.boundary_edges_opened];
+        (prepared, counts)
+    }
+
     /// A cap is mended by an edge flip, so the surface stays closed (dropping it opened a hole
     /// that made a closed mold spill).
     #[test]
     fn a_cap_is_flipped_away_not_dropped() {
-        let opts = RepairOptions { repair: true, ..Default::default() };
-        let prepared = prepare(&tetra_with_a_cap(false), &opts).unwrap();
-        let r = &prepared.report;
-        assert_eq!(
-            (r.zero_area_faces_flipped, r.degenerate_faces_removed, r.boundary_edges_opened),
-            (1, 0, 0),
-            "{r:?}"
-        );
+        let (prepared, counts) = repaired_tetra(false);
+        assert_eq!(counts, [1, 0, 0], "{:?}", prepared.report);
         let mesh = &prepared.mesh;
         assert_eq!((mesh.n_faces(), mesh.boundary_loops().len()), (6, 0));
         let eps = 1e-9;
@@ -616,14 +620,9 @@ mod tests {
     /// the report says that the surface is open there now.
     #[test]
     fn caps_that_cannot_be_flipped_are_dropped_and_the_opening_is_reported() {
-        let opts = RepairOptions { repair: true, ..Default::default() };
-        let prepared = prepare(&tetra_with_a_cap(true), &opts).unwrap();
+        let (prepared, counts) = repaired_tetra(true);
         let r = &prepared.report;
-        assert_eq!(
-            (r.zero_area_faces_flipped, r.degenerate_faces_removed, r.boundary_edges_opened),
-            (0, 2, 4),
-            "{r:?}"
-        );
+        assert_eq!(counts, [0, 2, 4], "{r:?}");
         assert_eq!(prepared.mesh.boundary_loops().len(), 1);
         assert!(r.lines().iter().any(|l| l.contains("4 boundary edge(s) left")), "{:?}", r.lines());
     }

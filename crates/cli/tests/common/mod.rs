@@ -64,12 +64,6 @@ impl std::ops::Deref for TmpDir {
     }
 }
 
-impl AsRef<Path> for TmpDir {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
 impl Drop for TmpDir {
     fn drop(&mut self) {
         if !std::thread::panicking() {
