@@ -51,6 +51,7 @@ use clothcast_layout::Segmentation;
 use clothcast_layout::cutgraph::cut_open;
 use clothcast_mesh::submesh::extract_submesh;
 use clothcast_mesh::{EdgeData, FaceData, FaceId, Mesh, Vec2, Vec3, VertexData, VertexId};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::f64::consts::FRAC_PI_2;
@@ -320,25 +321,19 @@ pub fn flatten_segmentation(
     let mut all_other: Vec<(f64, f64)> = Vec::new();
     // Weight of the major direction nearer the warp than the weft, and in all.
     let mut all_majors = (0.0, 0.0);
-    for (p, fs) in faces.iter().enumerate() {
-        let sub =
-            extract_submesh(&cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
-        let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| original[v.idx()]);
-        let seg_face = sub.face_to_parent.clone();
-        let pm = sub.mesh;
-        let piece = flatten_piece(&pm, &opts.bff, &opts.limits)
-            .map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+    // Every piece on its own (in parallel: they share nothing), then gathered in patch order,
+    // so that the totals and the messages are the same however the work was shared out.
+    let ctx = PieceContext { seg, cut: &cut, original: &original, seam_edge: &seam_edge, anisotropy, major, opts };
+    let laid: Vec<Result<LaidPiece, FlattenError>> =
+        faces.par_iter().enumerate().map(|(p, fs)| lay_piece(&ctx, p, fs)).collect();
+    for (p, piece) in laid.into_iter().enumerate() {
+        let piece = piece?;
         report.retried += usize::from(piece.retried);
         report.intrinsic_delaunay += usize::from(piece.intrinsic_delaunay);
         report.repaired_vertices += piece.repaired_vertices;
-        if piece.flattening.stats.flipped_triangles > 0 {
-            tracing::warn!(
-                patch = p,
-                flipped = piece.flattening.stats.flipped_triangles,
-                "flattened patch has flipped triangles"
-            );
+        if piece.flipped > 0 {
+            tracing::warn!(patch = p, flipped = piece.flipped, "flattened patch has flipped triangles");
         }
-        let convex = piece.outline_repair == Some(OutlineRepair::Convex);
         match (piece.outline_repair, piece.outline_simple) {
             (_, false) => {
                 report.outlines_not_simple += 1;
@@ -357,69 +352,12 @@ pub fn flatten_segmentation(
             }
             (None, true) => {}
         }
-        let flat = piece.flattening;
-        let outline = piece.outline;
-        // Field directions mapped into the piece's plane, and their weights.
-        let mapped: Vec<(f64, f64, f64)> = pm
-            .face_ids()
-            .map(|f| {
-                let sf = seg_face[f];
-                let theta = map_direction(&pm, &flat.uv, f, &seg.field_directions[sf]);
-                let area = pm.face_area(f);
-                (theta, area, area * (anisotropy[sf].clamp(0.0, 1.0) + 0.05))
-            })
-            .collect();
-        let phi_field = field_rotation(&mapped);
-        let phi_sides = side_rotation(&flat.uv, &outline, &seg_vertex, &seg.patches[p].corners);
-        let (phi, phi_other) = match opts.orientation {
-            Orientation::Field => (phi_field, phi_sides),
-            Orientation::LongestSide => (phi_sides, phi_field),
-        };
-        // The major direction mapped into the piece's plane, with the same weights; the
-        // quarter turn that puts it on the chosen fibre.
-        let majors: Vec<(f64, f64)> = pm
-            .face_ids()
-            .zip(&mapped)
-            .filter(|&(f, _)| major[seg_face[f]].norm_squared() > 0.0)
-            .map(|(f, &(_, _, w))| (map_direction(&pm, &flat.uv, f, &major[seg_face[f]]), w))
-            .collect();
-        let phi = phi + quarter_turn(&majors, phi, opts.warp_along);
-        let (on_warp, weight) = majors
-            .iter()
-            .fold((0.0, 0.0), |(a, b), &(t, w)| (if toward_warp(t, phi) > 0.0 { a + w } else { a }, b + w));
-        all_majors.0 += on_warp;
-        all_majors.1 += weight;
-        let centroid = {
-            let (mut c, mut a) = (Vec2::zeros(), 0.0);
-            for f in pm.face_ids() {
-                let [x, y, z] = pm.face_vertices(f).map(|v| flat.uv[v]);
-                let area = 0.5 * ((y - x).perp(&(z - x))).abs();
-                c += (x + y + z) / 3.0 * area;
-                a += area;
-            }
-            if a > 0.0 { c / a } else { Vec2::zeros() }
-        };
-        let rot = nalgebra::Rotation2::new(phi);
-        let uv: VertexData<Vec2> = flat.uv.map(|q| rot * (q - centroid));
-        let samples: Vec<(f64, f64)> = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi), a)).collect();
-        all_main.extend_from_slice(&samples);
-        let dev = weighted_median(samples);
-        all_other.extend(mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi_other), a)));
-        let stats = distortion(&pm, &uv);
-        runs.push(seam_runs(&uv, &outline, &seg_vertex, &seam_edge));
-        patches.push(FlatPatch {
-            patch: p as u32,
-            mesh: pm,
-            seg_vertex,
-            seg_face,
-            uv,
-            rotation: phi,
-            outline,
-            stats,
-            fiber_deviation_median_deg: dev,
-            major_on_warp_share: share(on_warp, weight),
-            convex_fallback: convex,
-        });
+        all_majors.0 += piece.on_warp;
+        all_majors.1 += piece.weight;
+        all_main.extend_from_slice(&piece.samples);
+        all_other.extend_from_slice(&piece.other_samples);
+        runs.push(piece.runs);
+        patches.push(piece.patch);
     }
     // Totals.
     let total_area: f64 = patches.iter().map(|q| q.mesh.total_area()).sum();
@@ -466,6 +404,124 @@ pub fn flatten_segmentation(
     report.seam_length_mismatch_max_rel = seam_mismatch(&runs, seg.seams.len());
     report.seconds = start.elapsed().as_secs_f64();
     Ok(FlatPieces { patches, runs, report })
+}
+
+/// What every piece of [`flatten_segmentation`] reads.
+struct PieceContext<'a> {
+    seg: &'a Segmentation,
+    /// The segmented mesh cut open along every seam, and each of its vertices' original.
+    cut: &'a Mesh,
+    original: &'a [VertexId],
+    /// Seam edge (segmented vertices, in seam order) → seam id.
+    seam_edge: &'a HashMap<(VertexId, VertexId), usize>,
+    anisotropy: &'a FaceData<f64>,
+    major: &'a FaceData<Vec3>,
+    opts: &'a FlattenOptions,
+}
+
+/// One piece flattened and oriented, with what the totals gather from it.
+struct LaidPiece {
+    patch: FlatPatch,
+    runs: Vec<SeamRun>,
+    /// (fibre angle, area) of every face with the chosen rule and with the other one.
+    samples: Vec<(f64, f64)>,
+    other_samples: Vec<(f64, f64)>,
+    /// Weight of the major direction nearer the warp than the weft, and in all.
+    on_warp: f64,
+    weight: f64,
+    retried: bool,
+    intrinsic_delaunay: bool,
+    repaired_vertices: usize,
+    /// Flipped triangles of the flattening (before the common area scale).
+    flipped: usize,
+    outline_repair: Option<OutlineRepair>,
+    outline_simple: bool,
+}
+
+/// Flatten patch `p` (faces `fs` of the segmented mesh) and orient it on the fabric.
+fn lay_piece(ctx: &PieceContext<'_>, p: usize, fs: &[FaceId]) -> Result<LaidPiece, FlattenError> {
+    let (seg, opts) = (ctx.seg, ctx.opts);
+    let sub = extract_submesh(ctx.cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
+    let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| ctx.original[v.idx()]);
+    let seg_face = sub.face_to_parent.clone();
+    let pm = sub.mesh;
+    let piece = flatten_piece(&pm, &opts.bff, &opts.limits)
+        .map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+    let convex = piece.outline_repair == Some(OutlineRepair::Convex);
+    let flat = piece.flattening;
+    let outline = piece.outline;
+    // Field directions mapped into the piece's plane, and their weights.
+    let mapped: Vec<(f64, f64, f64)> = pm
+        .face_ids()
+        .map(|f| {
+            let sf = seg_face[f];
+            let theta = map_direction(&pm, &flat.uv, f, &seg.field_directions[sf]);
+            let area = pm.face_area(f);
+            (theta, area, area * (ctx.anisotropy[sf].clamp(0.0, 1.0) + 0.05))
+        })
+        .collect();
+    let phi_field = field_rotation(&mapped);
+    let phi_sides = side_rotation(&flat.uv, &outline, &seg_vertex, &seg.patches[p].corners);
+    let (phi, phi_other) = match opts.orientation {
+        Orientation::Field => (phi_field, phi_sides),
+        Orientation::LongestSide => (phi_sides, phi_field),
+    };
+    // The major direction mapped into the piece's plane, with the same weights; the
+    // quarter turn that puts it on the chosen fibre.
+    let major = ctx.major;
+    let majors: Vec<(f64, f64)> = pm
+        .face_ids()
+        .zip(&mapped)
+        .filter(|&(f, _)| major[seg_face[f]].norm_squared() > 0.0)
+        .map(|(f, &(_, _, w))| (map_direction(&pm, &flat.uv, f, &major[seg_face[f]]), w))
+        .collect();
+    let phi = phi + quarter_turn(&majors, phi, opts.warp_along);
+    let (on_warp, weight) = majors
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(t, w)| (if toward_warp(t, phi) > 0.0 { a + w } else { a }, b + w));
+    let centroid = {
+        let (mut c, mut a) = (Vec2::zeros(), 0.0);
+        for f in pm.face_ids() {
+            let [x, y, z] = pm.face_vertices(f).map(|v| flat.uv[v]);
+            let area = 0.5 * ((y - x).perp(&(z - x))).abs();
+            c += (x + y + z) / 3.0 * area;
+            a += area;
+        }
+        if a > 0.0 { c / a } else { Vec2::zeros() }
+    };
+    let rot = nalgebra::Rotation2::new(phi);
+    let uv: VertexData<Vec2> = flat.uv.map(|q| rot * (q - centroid));
+    let samples: Vec<(f64, f64)> = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi), a)).collect();
+    let dev = weighted_median(samples.clone());
+    let other_samples = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi_other), a)).collect();
+    let stats = distortion(&pm, &uv);
+    let runs = seam_runs(&uv, &outline, &seg_vertex, ctx.seam_edge);
+    Ok(LaidPiece {
+        patch: FlatPatch {
+            patch: p as u32,
+            mesh: pm,
+            seg_vertex,
+            seg_face,
+            uv,
+            rotation: phi,
+            outline,
+            stats,
+            fiber_deviation_median_deg: dev,
+            major_on_warp_share: share(on_warp, weight),
+            convex_fallback: convex,
+        },
+        runs,
+        samples,
+        other_samples,
+        on_warp,
+        weight,
+        retried: piece.retried,
+        intrinsic_delaunay: piece.intrinsic_delaunay,
+        repaired_vertices: piece.repaired_vertices,
+        flipped: flat.stats.flipped_triangles,
+        outline_repair: piece.outline_repair,
+        outline_simple: piece.outline_simple,
+    })
 }
 
 /// Angle (radians) of a 3D direction of face `f` mapped into 2D by the face's affine map.
