@@ -441,7 +441,8 @@ struct LaidPiece {
 /// Flatten patch `p` (faces `fs` of the segmented mesh) and orient it on the fabric.
 fn lay_piece(ctx: &PieceContext<'_>, p: usize, fs: &[FaceId]) -> Result<LaidPiece, FlattenError> {
     let (seg, opts) = (ctx.seg, ctx.opts);
-    let sub = extract_submesh(ctx.cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
+    let sub =
+        extract_submesh(ctx.cut, fs).map_err(|e| FlattenError::Degenerate { reason: format!("patch {p}: {e}") })?;
     let seg_vertex: VertexData<VertexId> = sub.vertex_to_parent.map(|&v| ctx.original[v.idx()]);
     let seg_face = sub.face_to_parent.clone();
     let pm = sub.mesh;
@@ -476,9 +477,8 @@ fn lay_piece(ctx: &PieceContext<'_>, p: usize, fs: &[FaceId]) -> Result<LaidPiec
         .map(|(f, &(_, _, w))| (map_direction(&pm, &flat.uv, f, &major[seg_face[f]]), w))
         .collect();
     let phi = phi + quarter_turn(&majors, phi, opts.warp_along);
-    let (on_warp, weight) = majors
-        .iter()
-        .fold((0.0, 0.0), |(a, b), &(t, w)| (if toward_warp(t, phi) > 0.0 { a + w } else { a }, b + w));
+    let (on_warp, weight) =
+        majors.iter().fold((0.0, 0.0), |(a, b), &(t, w)| (if toward_warp(t, phi) > 0.0 { a + w } else { a }, b + w));
     let centroid = {
         let (mut c, mut a) = (Vec2::zeros(), 0.0);
         for f in pm.face_ids() {
