@@ -305,6 +305,45 @@ pub fn is_cut_edge(mesh: &Mesh, e: EdgeId, label: &impl Fn(FaceId) -> u32, seam:
     }
 }
 
+thread_local! {
+    /// [`LocalIndex`]'s table: `u32::MAX` everywhere between uses.
+    static LOCAL_INDEX: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// The place of each face of a region in its sorted face list, in O(1): a table the size of
+/// the mesh, kept per thread, set for the region's faces and cleared when dropped (also on
+/// unwinding). A nested use finds the table taken and makes its own.
+struct LocalIndex<'a> {
+    table: Vec<u32>,
+    faces: &'a [FaceId],
+}
+
+impl<'a> LocalIndex<'a> {
+    fn new(mesh: &Mesh, faces: &'a [FaceId]) -> Self {
+        let mut table = LOCAL_INDEX.take();
+        if table.len() < mesh.n_faces() {
+            table.resize(mesh.n_faces(), u32::MAX);
+        }
+        for (i, f) in faces.iter().enumerate() {
+            table[f.idx()] = i as u32;
+        }
+        Self { table, faces }
+    }
+
+    fn of(&self, f: FaceId) -> Option<usize> {
+        self.table.get(f.idx()).filter(|&&i| i != u32::MAX).map(|&i| i as usize)
+    }
+}
+
+impl Drop for LocalIndex<'_> {
+    fn drop(&mut self) {
+        for f in self.faces {
+            self.table[f.idx()] = u32::MAX;
+        }
+        LOCAL_INDEX.set(std::mem::take(&mut self.table));
+    }
+}
+
 /// Topology of the region `faces` (sorted, all with the same label) under a labelling of the
 /// whole mesh: an edge is a cut when it is a mesh boundary, a `seam`, or its two faces have
 /// different labels. O(|faces| log |faces|).
@@ -317,37 +356,68 @@ pub fn region_info(
 ) -> RegionInfo {
     let angles = &rule.angles;
     debug_assert!(faces.windows(2).all(|w| w[0] < w[1]), "faces must be sorted");
-    let local = |f: FaceId| faces.binary_search(&f).ok();
+    // Each face's place in `faces`, from a per-thread table the size of the mesh (set for
+    // these faces and cleared again on the way out): region_info runs thousands of times on
+    // regions of a large mesh, and a binary search per halfedge was a large part of it.
+    let index = LocalIndex::new(mesh, faces);
+    let local = |f: FaceId| index.of(f);
     let is_cut = |h: HalfedgeId| is_cut_edge(mesh, mesh.edge(h), label, seam);
-    // Wedges: corners joined across non-cut edges.
+    // Whether each face corner's halfedge (3i + k) is a cut: asked once per edge, its twin's
+    // entry set with it.
+    const UNKNOWN: u8 = 2;
+    let mut cut = vec![UNKNOWN; 3 * faces.len()];
+    // Wedges: corners joined across non-cut edges; their count is the corners less the
+    // unions that joined two sets.
     let mut uf = UnionFind::new(3 * faces.len());
+    let mut joined = 0i64;
     let mut edges_inner = 0i64;
     let mut edges_cut = 0i64;
     for (i, &f) in faces.iter().enumerate() {
         for k in 0..3 {
             let h = mesh.face_halfedge(f, k);
-            if is_cut(h) {
+            let here = 3 * i + k;
+            let twin = mesh.twin(h);
+            if cut[here] == UNKNOWN {
+                let c = is_cut(h);
+                cut[here] = u8::from(c);
+                if let Some(j) = twin.and_then(|t| local(mesh.face(t))) {
+                    cut[3 * j + mesh.corner(twin.expect("just found"))] = u8::from(c);
+                }
+            }
+            if cut[here] == 1 {
                 edges_cut += 1;
                 continue;
             }
-            let t = mesh.twin(h).expect("non-cut edges are interior");
+            let t = twin.expect("non-cut edges are interior");
             let j = local(mesh.face(t)).expect("non-cut edges stay in the region");
             if (f, k) < (mesh.face(t), mesh.corner(t)) {
                 edges_inner += 1;
             }
             let (ka, kb) = (k as u32, (k as u32 + 1) % 3);
             let (tb, ta) = (mesh.corner(t) as u32, (mesh.corner(t) as u32 + 1) % 3);
-            uf.union(3 * i as u32 + ka, 3 * j as u32 + ta);
-            uf.union(3 * i as u32 + kb, 3 * j as u32 + tb);
+            joined += i64::from(uf.union(3 * i as u32 + ka, 3 * j as u32 + ta));
+            joined += i64::from(uf.union(3 * i as u32 + kb, 3 * j as u32 + tb));
         }
     }
-    let (_, n_wedges) = uf.labels();
-    let euler = n_wedges as i64 - edges_inner - edges_cut + faces.len() as i64;
-    let distinct_labels = |v: VertexId| -> usize {
-        let mut ls: Vec<u32> = mesh.vertex_faces(v).map(label).collect();
-        ls.sort_unstable();
-        ls.dedup();
-        ls.len()
+    let n_wedges = 3 * faces.len() as i64 - joined;
+    let euler = n_wedges - edges_inner - edges_cut + faces.len() as i64;
+    // A halfedge of a region face: its cut flag as found above.
+    let is_cut_inside = |h: HalfedgeId| {
+        let i = local(mesh.face(h)).expect("a region face");
+        cut[3 * i + mesh.corner(h)] == 1
+    };
+    // Whether at least three labels meet at v.
+    let three_labels = |v: VertexId| -> bool {
+        let mut seen: [Option<u32>; 2] = [None, None];
+        for l in mesh.vertex_faces(v).map(label) {
+            match seen {
+                [None, _] => seen[0] = Some(l),
+                [Some(a), None] if a != l => seen[1] = Some(l),
+                [Some(a), Some(b)] if a != l && b != l => return true,
+                _ => {}
+            }
+        }
+        false
     };
     let cut_meets_boundary = |v: VertexId| -> bool {
         mesh.is_boundary_vertex(v) && mesh.outgoing(v).any(|h| !mesh.is_boundary_halfedge(h) && is_cut(h))
@@ -359,7 +429,7 @@ pub fn region_info(
     for (i, &f) in faces.iter().enumerate() {
         for k in 0..3 {
             let h0 = mesh.face_halfedge(f, k);
-            if seen[3 * i + k] || !is_cut(h0) {
+            if seen[3 * i + k] || cut[3 * i + k] != 1 {
                 continue;
             }
             loops += 1;
@@ -380,7 +450,7 @@ pub fn region_info(
                     b: mesh.vector(g),
                     angle: angles[g],
                 }];
-                while !is_cut(g) {
+                while !is_cut_inside(g) {
                     let a = mesh.vector(g);
                     g = mesh.next(mesh.twin(g).expect("non-cut edges are interior"));
                     angle_sum += angles[g];
@@ -403,7 +473,7 @@ pub fn region_info(
                 .iter()
                 .map(|l| {
                     let v = l.v;
-                    rule.singular[v] || mesh.is_boundary_vertex(v) || distinct_labels(v) >= 3 || cut_meets_boundary(v)
+                    rule.singular[v] || mesh.is_boundary_vertex(v) || three_labels(v) || cut_meets_boundary(v)
                 })
                 .collect();
             let n = lp.len();

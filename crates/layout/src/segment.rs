@@ -1134,18 +1134,53 @@ impl<'a> State<'a> {
     /// Evaluate removing `edges` between `a` and `b`: the union's topology and score, or None if
     /// a singularity would end up inside.
     fn evaluate(&self, a: u32, b: u32, edges: &[EdgeId]) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
-        self.evaluate_with(a, b, edges, false)
+        let (info, union) = self.evaluate_with(a, b, edges, false)?;
+        let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
+        let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
+        let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
+        let score = region_score(self.mesh, &union, &label, &seam, self.scores);
+        Some((info, score, union))
     }
 
-    /// [`Self::evaluate`], optionally accepting a removal that leaves a singularity without a
-    /// seam (the caller then joins it to the seams again).
+    /// The faces of patches `a` and `b` (sorted).
+    fn union_faces(&self, a: u32, b: u32) -> Vec<FaceId> {
+        let mut union: Vec<FaceId> = self.faces[a as usize].clone();
+        if a != b {
+            union.extend_from_slice(&self.faces[b as usize]);
+            union.sort_unstable();
+        }
+        union
+    }
+
+    /// The patches whose merge candidates a merge with union `union` (its faces, before the
+    /// merge) can change: those with a face at one of its vertices (their corners, seams and
+    /// neighbours there).
+    fn touched_by(&self, union: &[FaceId]) -> BTreeSet<u32> {
+        let mut touched = BTreeSet::new();
+        for &f in union {
+            for k in 0..3 {
+                if let Some(g) = self.mesh.face_neighbor(f, k) {
+                    touched.insert(self.label[g]);
+                }
+            }
+            for v in self.mesh.face_vertices(f) {
+                for g in self.mesh.vertex_faces(v) {
+                    touched.insert(self.label[g]);
+                }
+            }
+        }
+        touched
+    }
+
+    /// [`Self::evaluate`] without the score, optionally accepting a removal that leaves a
+    /// singularity without a seam (the caller then joins it to the seams again).
     fn evaluate_with(
         &self,
         a: u32,
         b: u32,
         edges: &[EdgeId],
         allow_exposing: bool,
-    ) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
+    ) -> Option<(RegionInfo, Vec<FaceId>)> {
         // Singularities exposed by the removal.
         let mut removed_at: BTreeMap<VertexId, u32> = BTreeMap::new();
         for &e in edges {
@@ -1164,11 +1199,7 @@ impl<'a> State<'a> {
         if known.is_some_and(|(limit, extent)| extent > limit) {
             return None;
         }
-        let mut union: Vec<FaceId> = self.faces[a as usize].clone();
-        if a != b {
-            union.extend_from_slice(&self.faces[b as usize]);
-            union.sort_unstable();
-        }
+        let union = self.union_faces(a, b);
         let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
         let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
         let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
@@ -1192,8 +1223,7 @@ impl<'a> State<'a> {
             }
         }
         let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
-        let score = region_score(self.mesh, &union, &label, &seam, self.scores);
-        Some((info, score, union))
+        Some((info, union))
     }
 
     fn apply(&mut self, a: u32, b: u32, edges: &[EdgeId], union: Vec<FaceId>) {
@@ -1299,21 +1329,10 @@ impl<'a> State<'a> {
                 cache.insert((c.a, c.b), None);
                 continue;
             }
-            let (_, _, union) = self.evaluate(c.a, c.b, &c.edges).expect("cached candidates are valid");
+            let union = self.union_faces(c.a, c.b);
             // Invalidate pairs touching the merged patches and their neighbours.
-            let mut touched: BTreeSet<u32> = BTreeSet::from([c.a, c.b]);
-            for &f in &union {
-                for k in 0..3 {
-                    if let Some(g) = self.mesh.face_neighbor(f, k) {
-                        touched.insert(self.label[g]);
-                    }
-                }
-                for v in self.mesh.face_vertices(f) {
-                    for g in self.mesh.vertex_faces(v) {
-                        touched.insert(self.label[g]);
-                    }
-                }
-            }
+            let mut touched = self.touched_by(&union);
+            touched.extend([c.a, c.b]);
             self.apply(c.a, c.b, &c.edges, union);
             cache.retain(|&(x, y), _| !touched.contains(&x) && !touched.contains(&y));
             merges += 1;
@@ -1648,14 +1667,14 @@ impl<'a> State<'a> {
                     .chain([p, to])
                     .collect();
                 let changed = [(p, &rest[..]), (to, &grown[..])];
-                let (before, after, disks) = self.corner_sums(&around, &changed, &label, &seam_after, &mut bad_now);
-                if !disks || after >= before {
+                // The least drop that beats the best so far (ties go to the smaller key).
+                let least = best.as_ref().map_or(1, |(bg, bk, _)| if key < *bk { *bg } else { bg + 1 }).max(1);
+                let Some(gain) =
+                    self.corner_gain(&around, &changed, &label, &seam_after, &mut bad_now, (0, 0), least, true)
+                else {
                     continue;
-                }
-                let gain = before - after;
-                if best.as_ref().is_none_or(|(bg, bk, _)| gain > *bg || (gain == *bg && key < *bk)) {
-                    best = Some((gain, key, (spike.clone(), to, cut.clone())));
-                }
+                };
+                best = Some((gain, key, (spike.clone(), to, cut.clone())));
             }
         }
         best.map(|(_, _, zip)| zip)
@@ -1679,26 +1698,41 @@ impl<'a> State<'a> {
             .collect()
     }
 
-    /// Σ |corners − 4| over the patches `ids` as they are (cached in `now`) and under the
-    /// labelling `label` with seams `seam`, the faces of the patches in `changed` replaced;
-    /// and whether they would all be disks.
-    fn corner_sums(
+    /// The drop in Σ |corners − 4| over the patches `ids` from as they are (cached in `now`) to
+    /// under the labelling `label` with seams `seam`, the faces of the patches in `changed`
+    /// replaced, `extra` = (before, after) added to the two sums; None when the drop is below
+    /// `least` or, with `disks`, a patch would not be a disk. The patches of `changed` are
+    /// measured first, and the measuring stops once the drop cannot reach `least` (the sums
+    /// only grow), so a candidate that cannot win costs fewer measurements.
+    #[allow(clippy::too_many_arguments)]
+    fn corner_gain(
         &self,
         ids: &BTreeSet<u32>,
         changed: &[(u32, &[FaceId])],
         label: &impl Fn(FaceId) -> u32,
         seam: &impl Fn(EdgeId) -> bool,
         now: &mut BTreeMap<u32, usize>,
-    ) -> (usize, usize, bool) {
-        let (mut before, mut after, mut disks) = (0, 0, true);
+        extra: (usize, usize),
+        least: usize,
+        disks: bool,
+    ) -> Option<usize> {
+        let (mut before, mut after) = extra;
         for &r in ids {
             before += *now.entry(r).or_insert_with(|| self.info_of(r).corners.len().abs_diff(4));
+        }
+        let is_changed = |r: &u32| changed.iter().any(|(q, _)| q == r);
+        for &r in ids.iter().filter(|r| is_changed(r)).chain(ids.iter().filter(|r| !is_changed(r))) {
+            if after + least > before {
+                return None;
+            }
             let faces = changed.iter().find(|(q, _)| *q == r).map_or(&self.faces[r as usize][..], |&(_, f)| f);
             let info = region_info(self.mesh, faces, label, seam, &self.rule);
-            disks &= info.is_disk();
+            if disks && !info.is_disk() {
+                return None;
+            }
             after += info.corners.len().abs_diff(4);
         }
-        (before, after, disks)
+        (after + least <= before).then(|| before - after)
     }
 
     /// Give the `spike` faces of `p` to patch `to`, the `cut` edges becoming seams and the
@@ -1833,17 +1867,15 @@ impl<'a> State<'a> {
             let ends = [path[0], *path.last().expect("paths have two vertices")];
             let others: BTreeSet<u32> =
                 ends.iter().flat_map(|&u| mesh.vertex_faces(u)).map(|f| self.label[f]).filter(|&q| q != p).collect();
-            let (others_before, others_after, _) = self.corner_sums(&others, &[], &label, &seam, &mut bad_now);
-            let before = bad + others_before;
-            let after = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4) + others_after;
-            if after >= before {
-                continue;
-            }
             let len: f64 = path.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum();
-            let gain = before - after;
-            if best.as_ref().is_none_or(|(bg, bl, _, _)| gain > *bg || (gain == *bg && len < *bl)) {
-                best = Some((gain, len, a, b));
-            }
+            // The least drop that beats the best so far (ties go to the shorter seam).
+            let least = best.as_ref().map_or(1, |(bg, bl, _, _)| if len < *bl { *bg } else { bg + 1 }).max(1);
+            let sides = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4);
+            let Some(gain) = self.corner_gain(&others, &[], &label, &seam, &mut bad_now, (bad, sides), least, false)
+            else {
+                continue;
+            };
+            best = Some((gain, len, a, b));
         }
         best.map(|(_, _, a, b)| (a, b))
     }
@@ -1905,6 +1937,10 @@ impl<'a> State<'a> {
 
     fn merge_tiny_with(&mut self, min_area: f64, allow_exposing: bool) -> usize {
         let mut merges = 0;
+        // Merges refused (keep, gone, edges), until a merge touches one of the two patches
+        // ([`Self::touched_by`]): each merge restarts the search, which would otherwise ask
+        // again about every tiny patch that could not merge.
+        let mut refused: BTreeSet<(u32, u32, Vec<EdgeId>)> = BTreeSet::new();
         loop {
             let area = |fs: &[FaceId]| fs.iter().map(|&f| self.mesh.face_area(f)).sum::<f64>();
             let interfaces = self.interfaces();
@@ -1936,14 +1972,23 @@ impl<'a> State<'a> {
                 for (_, _, a, b, edges) in options {
                     // Keep the neighbour's label.
                     let (keep, gone) = if a == t { (b, a) } else { (a, b) };
-                    if let Some((info, _, union)) = self.evaluate_with(keep, gone, &edges, allow_exposing)
+                    let key = (keep, gone, edges);
+                    if refused.contains(&key) {
+                        continue;
+                    }
+                    let edges = &key.2;
+                    if let Some((info, union)) = self.evaluate_with(keep, gone, edges, allow_exposing)
                         && info.is_disk()
                     {
-                        self.apply(keep, gone, &edges, union);
+                        let mut touched = self.touched_by(&union);
+                        touched.extend([keep, gone]);
+                        refused.retain(|(x, y, _)| !touched.contains(x) && !touched.contains(y));
+                        self.apply(keep, gone, edges, union);
                         merges += 1;
                         done = true;
                         break;
                     }
+                    refused.insert(key);
                 }
                 if done {
                     break;
