@@ -34,6 +34,7 @@
 
 use crate::bff::{rest_frame, singular_values};
 use clothcast_mesh::{FaceId, Mesh, Vec2, VertexData, VertexId};
+use rayon::prelude::*;
 use std::collections::BTreeSet;
 
 /// The tries: rings grown around the flipped triangles' vertices, and whether those of their
@@ -87,16 +88,21 @@ impl FaceMaps {
 
     /// J of face f as [[j00, j01], [j10, j11]] (column j = ∂/∂ rest axis j).
     fn jacobian(&self, mesh: &Mesh, uv: &VertexData<Vec2>, f: FaceId) -> [[f64; 2]; 2] {
-        let mut j = [[0.0; 2]; 2];
-        for (k, v) in mesh.face_vertices(f).into_iter().enumerate() {
-            let (u, g) = (uv[v], self.g[f.idx()][k]);
-            for (r, ur) in [u.x, u.y].into_iter().enumerate() {
-                j[r][0] += ur * g.x;
-                j[r][1] += ur * g.y;
-            }
-        }
-        j
+        jacobian(&mesh.face_vertices(f), &self.g[f.idx()], uv)
     }
+}
+
+/// J = Σ_k u_k g_kᵀ of a face with corners `verts` and gradients `g`.
+fn jacobian(verts: &[VertexId; 3], g: &[Vec2; 3], uv: &VertexData<Vec2>) -> [[f64; 2]; 2] {
+    let mut j = [[0.0; 2]; 2];
+    for (&v, g) in verts.iter().zip(g) {
+        let u = uv[v];
+        for (r, ur) in [u.x, u.y].into_iter().enumerate() {
+            j[r][0] += ur * g.x;
+            j[r][1] += ur * g.y;
+        }
+    }
+    j
 }
 
 fn det(j: &[[f64; 2]; 2]) -> f64 {
@@ -108,20 +114,35 @@ fn det(j: &[[f64; 2]; 2]) -> f64 {
 /// the stiffness).
 struct Star {
     v: VertexId,
-    faces: Vec<(FaceId, usize)>,
+    faces: Vec<StarFace>,
     springs: Vec<(VertexId, f64, f64)>,
+}
+
+/// A face of a [`Star`], with what its energy needs copied from the mesh and the [`FaceMaps`]
+/// (the energy is evaluated tens of times per vertex and sweep).
+struct StarFace {
+    f: FaceId,
+    /// The star vertex's corner.
+    k: usize,
+    verts: [VertexId; 3],
+    g: [Vec2; 3],
+    area: f64,
+}
+
+/// The faces around v as a [`Star`] holds them.
+fn star_faces(mesh: &Mesh, maps: &FaceMaps, v: VertexId) -> Vec<StarFace> {
+    mesh.vertex_faces(v)
+        .map(|f| {
+            let verts = mesh.face_vertices(f);
+            let k = verts.iter().position(|&w| w == v).unwrap_or(0);
+            StarFace { f, k, verts, g: maps.g[f.idx()], area: maps.area[f.idx()] }
+        })
+        .collect()
 }
 
 /// One vertex's energy over its faces (and springs), with gradient and Hessian in its position
 /// when asked.
-fn vertex_energy(
-    mesh: &Mesh,
-    maps: &FaceMaps,
-    uv: &VertexData<Vec2>,
-    star: &Star,
-    eps: f64,
-    derivatives: bool,
-) -> (f64, Vec2, [[f64; 2]; 2]) {
+fn vertex_energy(uv: &VertexData<Vec2>, star: &Star, eps: f64, derivatives: bool) -> (f64, Vec2, [[f64; 2]; 2]) {
     let (mut e, mut grad, mut hess) = (0.0, Vec2::zeros(), [[0.0; 2]; 2]);
     // Springs k (l − L)²: ∇ = 2k (l − L) n, ∇² = 2k (n nᵀ + max(0, 1 − L/l) (I − n nᵀ)) (the
     // part that is negative under compression left out).
@@ -142,12 +163,12 @@ fn vertex_energy(
             }
         }
     }
-    for &(f, k) in &star.faces {
-        let a = maps.area[f.idx()];
+    for sf in &star.faces {
+        let a = sf.area;
         if a == 0.0 {
             continue;
         }
-        let j = maps.jacobian(mesh, uv, f);
+        let j = jacobian(&sf.verts, &sf.g, uv);
         let t = j[0][0].powi(2) + j[0][1].powi(2) + j[1][0].powi(2) + j[1][1].powi(2);
         let d = det(&j);
         let root = (eps * eps + d * d).sqrt();
@@ -163,7 +184,7 @@ fn vertex_energy(
         if !derivatives {
             continue;
         }
-        let g = maps.g[f.idx()][k];
+        let g = sf.g[sf.k];
         // J = C + u gᵀ: ∂t/∂u = 2 J g, ∂²t/∂u² = 2|g|² I; det J is linear in u with
         // ∂D/∂u = cof(J) g (cof = ∂ det/∂J).
         let jg = Vec2::new(j[0][0] * g.x + j[0][1] * g.y, j[1][0] * g.x + j[1][1] * g.y);
@@ -186,9 +207,9 @@ fn vertex_energy(
 }
 
 /// One damped Newton step on vertex v's position, kept only if its energy falls.
-fn relax_vertex(mesh: &Mesh, maps: &FaceMaps, uv: &mut VertexData<Vec2>, star: &Star, eps: f64) {
+fn relax_vertex(uv: &mut VertexData<Vec2>, star: &Star, eps: f64) {
     let v = star.v;
-    let (e0, g, h) = vertex_energy(mesh, maps, uv, star, eps, true);
+    let (e0, g, h) = vertex_energy(uv, star, eps, true);
     if !(e0.is_finite() && g.norm() > 0.0) {
         return;
     }
@@ -205,13 +226,13 @@ fn relax_vertex(mesh: &Mesh, maps: &FaceMaps, uv: &mut VertexData<Vec2>, star: &
     } else {
         // A tenth of the smallest height among the vertex's triangles (1/|g| is the height
         // of the vertex over its opposite edge).
-        let reach = star.faces.iter().map(|&(f, k)| maps.g[f.idx()][k].norm()).fold(0.0, f64::max);
+        let reach = star.faces.iter().map(|sf| sf.g[sf.k].norm()).fold(0.0, f64::max);
         -g / g.norm() * (0.1 / reach.max(1e-300))
     };
     let start = uv[v];
     for _ in 0..30 {
         uv[v] = start + step;
-        let (e1, _, _) = vertex_energy(mesh, maps, uv, star, eps, false);
+        let (e1, _, _) = vertex_energy(uv, star, eps, false);
         if e1 < e0 {
             return;
         }
@@ -296,8 +317,10 @@ pub(crate) fn untangle(mesh: &Mesh, uv: &mut VertexData<Vec2>) -> usize {
             (l - l0).abs() <= BOUNDARY_SLACK * l0 || (l - l3).abs() <= (l0 - l3).abs().max(BOUNDARY_SLACK * l3)
         })
     };
+    // The tries run in parallel (a piece with a stubborn sliver can be untangled a hundred
+    // times over the outline repairs of `flatten_piece`); collected in the order of TRIES.
     let candidates: Vec<(f64, VertexData<Vec2>)> = regions
-        .iter()
+        .par_iter()
         .filter(|r| !r.is_empty())
         .filter_map(|region| {
             let mut candidate = original.clone();
@@ -339,10 +362,7 @@ fn unfold(mesh: &Mesh, maps: &FaceMaps, uv: &mut VertexData<Vec2>, region: &BTre
     let stars: Vec<Star> = region
         .iter()
         .map(|&v| {
-            let faces = mesh
-                .vertex_faces(v)
-                .map(|f| (f, mesh.face_vertices(f).iter().position(|&w| w == v).unwrap_or(0)))
-                .collect();
+            let faces = star_faces(mesh, maps, v);
             // A boundary vertex's boundary edges held near their 3D lengths (the energy alone
             // is scale invariant), stiff against the faces: k L² = SPRING × the edge's face's
             // area, so a 1% change weighs SPRING · 10⁻⁴ of that face's area.
@@ -365,13 +385,13 @@ fn unfold(mesh: &Mesh, maps: &FaceMaps, uv: &mut VertexData<Vec2>, region: &BTre
             Star { v, faces, springs }
         })
         .collect();
-    let faces: BTreeSet<FaceId> = stars.iter().flat_map(|s| s.faces.iter().map(|&(f, _)| f)).collect();
+    let faces: BTreeSet<FaceId> = stars.iter().flat_map(|s| s.faces.iter().map(|sf| sf.f)).collect();
     let dets = |uv: &VertexData<Vec2>| -> Vec<f64> {
         faces.iter().filter(|f| maps.area[f.idx()] > 0.0).map(|&f| det(&maps.jacobian(mesh, uv, f))).collect()
     };
     let sweep = |uv: &mut VertexData<Vec2>, eps: f64| {
         for star in &stars {
-            relax_vertex(mesh, maps, uv, star, eps);
+            relax_vertex(uv, star, eps);
         }
     };
     let mut abs: Vec<f64> = dets(uv).iter().map(|d| d.abs()).collect();
@@ -494,6 +514,25 @@ mod tests {
         assert!(s.qc_mean < t.qc_mean && s.qc_max < t.qc_max, "{s:?} against Tutte's {t:?}");
     }
 
+    /// The tries run in parallel: the result is the same, bit for bit, on one thread and on
+    /// several (inside and at the boundary).
+    #[test]
+    fn the_result_does_not_depend_on_the_thread_count() {
+        for (thrown, by) in [(VertexId::new(4 * 11 + 5), Vec2::new(0.9, -0.6)), (VertexId::new(5), Vec2::new(0.0, 0.5))]
+        {
+            let (m, _, tangled) = tangled(thrown, by);
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut uv = tangled.clone();
+                let moved = pool.install(|| untangle(&m, &mut uv));
+                (moved, m.vertices().map(|v| [uv[v].x.to_bits(), uv[v].y.to_bits()]).collect::<Vec<_>>())
+            };
+            let one = run(1);
+            assert!(one.0 > 0);
+            assert_eq!(one, run(4));
+        }
+    }
+
     /// A thrown boundary vertex is brought back by the tries that move the boundary (laid out
     /// isometrically, as BFF lays the outline out: the tries keep the other boundary edges).
     #[test]
@@ -519,8 +558,7 @@ mod tests {
             uv[v] *= 1.3; // boundary edges longer than in 3D: the springs' exact Hessian
         }
         for (v, eps) in [(VertexId::new(5), 0.3), (VertexId::new(4 * 11 + 5), 0.3), (VertexId::new(4 * 11 + 5), 1e-3)] {
-            let faces: Vec<(FaceId, usize)> =
-                m.vertex_faces(v).map(|f| (f, m.face_vertices(f).iter().position(|&w| w == v).unwrap())).collect();
+            let faces = star_faces(&m, &maps, v);
             let springs: Vec<(VertexId, f64, f64)> = m
                 .vertex_neighbors(v)
                 .into_iter()
@@ -529,7 +567,7 @@ mod tests {
                 .collect();
             assert_eq!(springs.len(), if m.is_boundary_vertex(v) { 2 } else { 0 });
             let star = &Star { v, faces, springs };
-            let (_, g, h) = vertex_energy(&m, &maps, &uv, star, eps, true);
+            let (_, g, h) = vertex_energy(&uv, star, eps, true);
             let step = 1e-6;
             for axis in 0..2 {
                 let mut du = Vec2::zeros();
@@ -537,7 +575,7 @@ mod tests {
                 let at = |d: Vec2| {
                     let mut w = uv.clone();
                     w[v] += d;
-                    vertex_energy(&m, &maps, &w, star, eps, true)
+                    vertex_energy(&w, star, eps, true)
                 };
                 let (ep, gp, _) = at(du);
                 let (em, gm, _) = at(-du);

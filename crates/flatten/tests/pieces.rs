@@ -253,3 +253,22 @@ fn the_convex_fallback_is_simple_and_unfolded() {
     let len2: f64 = (0..n).map(|k| (flat.uv[outline[(k + 1) % n]] - flat.uv[outline[k]]).norm()).sum();
     assert!((len2 / len3 - 1.0).abs() < 0.01, "{len2} vs {len3}");
 }
+
+/// The pieces are flattened in parallel: the result must not depend on the number of threads
+/// (the untangling's own parallel tries are tested in `untangle.rs`).
+#[test]
+fn the_result_does_not_depend_on_the_thread_count() {
+    let seg = segmented(&data("closed/fertility.off"));
+    let ones = FaceData::filled(seg.mesh.n_faces(), 1.0);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut flat = pool
+            .install(|| flatten_segmentation(&seg, &ones, &seg.field_directions, &FlattenOptions::default()))
+            .unwrap();
+        flat.report.seconds = 0.0;
+        let pieces: Vec<String> =
+            flat.patches.iter().map(|p| format!("{:?} {:?} {} {:?}", p.uv, p.outline, p.rotation, p.stats)).collect();
+        (pieces, format!("{:?} {:?}", flat.runs, flat.report))
+    };
+    assert_eq!(run(1), run(4));
+}
