@@ -346,7 +346,8 @@ impl Drop for LocalIndex<'_> {
 
 /// Topology of the region `faces` (sorted, all with the same label) under a labelling of the
 /// whole mesh: an edge is a cut when it is a mesh boundary, a `seam`, or its two faces have
-/// different labels. O(|faces| log |faces|).
+/// different labels. O(|faces|) (the first call on a thread sizes a table to the mesh,
+/// [`LocalIndex`]).
 pub fn region_info(
     mesh: &Mesh,
     faces: &[FaceId],
@@ -364,8 +365,7 @@ pub fn region_info(
     let is_cut = |h: HalfedgeId| is_cut_edge(mesh, mesh.edge(h), label, seam);
     // Whether each face corner's halfedge (3i + k) is a cut: asked once per edge, its twin's
     // entry set with it.
-    const UNKNOWN: u8 = 2;
-    let mut cut = vec![UNKNOWN; 3 * faces.len()];
+    let mut cut: Vec<Option<bool>> = vec![None; 3 * faces.len()];
     // Wedges: corners joined across non-cut edges; their count is the corners less the
     // unions that joined two sets.
     let mut uf = UnionFind::new(3 * faces.len());
@@ -377,14 +377,13 @@ pub fn region_info(
             let h = mesh.face_halfedge(f, k);
             let here = 3 * i + k;
             let twin = mesh.twin(h);
-            if cut[here] == UNKNOWN {
-                let c = is_cut(h);
-                cut[here] = u8::from(c);
-                if let Some(j) = twin.and_then(|t| local(mesh.face(t))) {
-                    cut[3 * j + mesh.corner(twin.expect("just found"))] = u8::from(c);
-                }
+            let is = *cut[here].get_or_insert_with(|| is_cut(h));
+            if let Some(t) = twin
+                && let Some(j) = local(mesh.face(t))
+            {
+                cut[3 * j + mesh.corner(t)] = Some(is);
             }
-            if cut[here] == 1 {
+            if is {
                 edges_cut += 1;
                 continue;
             }
@@ -404,7 +403,7 @@ pub fn region_info(
     // A halfedge of a region face: its cut flag as found above.
     let is_cut_inside = |h: HalfedgeId| {
         let i = local(mesh.face(h)).expect("a region face");
-        cut[3 * i + mesh.corner(h)] == 1
+        cut[3 * i + mesh.corner(h)] == Some(true)
     };
     // Whether at least three labels meet at v.
     let three_labels = |v: VertexId| -> bool {
@@ -429,7 +428,7 @@ pub fn region_info(
     for (i, &f) in faces.iter().enumerate() {
         for k in 0..3 {
             let h0 = mesh.face_halfedge(f, k);
-            if seen[3 * i + k] || cut[3 * i + k] != 1 {
+            if seen[3 * i + k] || cut[3 * i + k] != Some(true) {
                 continue;
             }
             loops += 1;

@@ -1049,6 +1049,12 @@ struct State<'a> {
 /// the cut edges.
 type Zip = (Vec<FaceId>, u32, BTreeSet<EdgeId>);
 
+/// The least drop in Σ |corners − 4| that makes a repair candidate the best so far, given the
+/// best's drop and whether the candidate wins a tie with it (none yet: any drop).
+fn least_to_beat(best: Option<(usize, bool)>) -> usize {
+    best.map_or(1, |(gain, wins_tie)| if wins_tie { gain } else { gain + 1 }).max(1)
+}
+
 /// A candidate merge: patches `a` and `b` (equal for removing a dangling seam) and the edges
 /// to remove.
 struct Candidate {
@@ -1134,12 +1140,8 @@ impl<'a> State<'a> {
     /// Evaluate removing `edges` between `a` and `b`: the union's topology and score, or None if
     /// a singularity would end up inside.
     fn evaluate(&self, a: u32, b: u32, edges: &[EdgeId]) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
-        let (info, union) = self.evaluate_with(a, b, edges, false)?;
-        let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
-        let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
-        let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
-        let score = region_score(self.mesh, &union, &label, &seam, self.scores);
-        Some((info, score, union))
+        let (info, score, union) = self.evaluate_with(a, b, edges, false, true)?;
+        Some((info, score?, union))
     }
 
     /// The faces of patches `a` and `b` (sorted).
@@ -1154,7 +1156,7 @@ impl<'a> State<'a> {
 
     /// The patches whose merge candidates a merge with union `union` (its faces, before the
     /// merge) can change: those with a face at one of its vertices (their corners, seams and
-    /// neighbours there).
+    /// neighbours there), the union's own two among them.
     fn touched_by(&self, union: &[FaceId]) -> BTreeSet<u32> {
         let mut touched = BTreeSet::new();
         for &f in union {
@@ -1172,15 +1174,17 @@ impl<'a> State<'a> {
         touched
     }
 
-    /// [`Self::evaluate`] without the score, optionally accepting a removal that leaves a
-    /// singularity without a seam (the caller then joins it to the seams again).
+    /// [`Self::evaluate`], optionally accepting a removal that leaves a singularity without a
+    /// seam (the caller then joins it to the seams again); the score only when `scored` (the
+    /// tiny merges do not use it).
     fn evaluate_with(
         &self,
         a: u32,
         b: u32,
         edges: &[EdgeId],
         allow_exposing: bool,
-    ) -> Option<(RegionInfo, Vec<FaceId>)> {
+        scored: bool,
+    ) -> Option<(RegionInfo, Option<f64>, Vec<FaceId>)> {
         // Singularities exposed by the removal.
         let mut removed_at: BTreeMap<VertexId, u32> = BTreeMap::new();
         for &e in edges {
@@ -1223,7 +1227,8 @@ impl<'a> State<'a> {
             }
         }
         let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
-        Some((info, union))
+        let score = scored.then(|| region_score(self.mesh, &union, &label, &seam, self.scores));
+        Some((info, score, union))
     }
 
     fn apply(&mut self, a: u32, b: u32, edges: &[EdgeId], union: Vec<FaceId>) {
@@ -1331,8 +1336,7 @@ impl<'a> State<'a> {
             }
             let union = self.union_faces(c.a, c.b);
             // Invalidate pairs touching the merged patches and their neighbours.
-            let mut touched = self.touched_by(&union);
-            touched.extend([c.a, c.b]);
+            let touched = self.touched_by(&union);
             self.apply(c.a, c.b, &c.edges, union);
             cache.retain(|&(x, y), _| !touched.contains(&x) && !touched.contains(&y));
             merges += 1;
@@ -1667,8 +1671,8 @@ impl<'a> State<'a> {
                     .chain([p, to])
                     .collect();
                 let changed = [(p, &rest[..]), (to, &grown[..])];
-                // The least drop that beats the best so far (ties go to the smaller key).
-                let least = best.as_ref().map_or(1, |(bg, bk, _)| if key < *bk { *bg } else { bg + 1 }).max(1);
+                // Ties go to the smaller key.
+                let least = least_to_beat(best.as_ref().map(|(bg, bk, _)| (*bg, key < *bk)));
                 let Some(gain) =
                     self.corner_gain(&around, &changed, &label, &seam_after, &mut bad_now, (0, 0), least, true)
                 else {
@@ -1868,8 +1872,8 @@ impl<'a> State<'a> {
             let others: BTreeSet<u32> =
                 ends.iter().flat_map(|&u| mesh.vertex_faces(u)).map(|f| self.label[f]).filter(|&q| q != p).collect();
             let len: f64 = path.windows(2).map(|w| (mesh.position(w[1]) - mesh.position(w[0])).norm()).sum();
-            // The least drop that beats the best so far (ties go to the shorter seam).
-            let least = best.as_ref().map_or(1, |(bg, bl, _, _)| if len < *bl { *bg } else { bg + 1 }).max(1);
+            // Ties go to the shorter seam.
+            let least = least_to_beat(best.as_ref().map(|(bg, bl, _, _)| (*bg, len < *bl)));
             let sides = ia.corners.len().abs_diff(4) + ib.corners.len().abs_diff(4);
             let Some(gain) = self.corner_gain(&others, &[], &label, &seam, &mut bad_now, (bad, sides), least, false)
             else {
@@ -1977,11 +1981,10 @@ impl<'a> State<'a> {
                         continue;
                     }
                     let edges = &key.2;
-                    if let Some((info, union)) = self.evaluate_with(keep, gone, edges, allow_exposing)
+                    if let Some((info, _, union)) = self.evaluate_with(keep, gone, edges, allow_exposing, false)
                         && info.is_disk()
                     {
-                        let mut touched = self.touched_by(&union);
-                        touched.extend([keep, gone]);
+                        let touched = self.touched_by(&union);
                         refused.retain(|(x, y, _)| !touched.contains(x) && !touched.contains(y));
                         self.apply(keep, gone, edges, union);
                         merges += 1;
