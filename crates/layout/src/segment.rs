@@ -66,6 +66,7 @@ use clothcast_field::{CrossField, Singularity};
 use clothcast_mesh::geometry::shortest_edge_path;
 use clothcast_mesh::{EdgeData, EdgeId, FaceData, FaceId, HalfedgeId, Mesh, Vec3, VertexData, VertexId};
 use serde::Serialize;
+use std::cell::OnceCell;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
@@ -452,15 +453,18 @@ pub fn segment(
         }
         let (mut split, mut zipped) = (0, 0);
         if stats.straightened {
-            if let Some((late_stage, n, m)) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts) {
+            // The stage after its tiny pass, measured once for the repairs tried on it.
+            let mut passed = OnceCell::new();
+            if let Some((late_stage, n, m)) = late_splits(&stage, &dirs, &trace_opts, final_chords, opts, &passed) {
                 stage = late_stage;
+                passed = OnceCell::new();
                 split = n;
                 stats.splits += n;
                 stats.merges += m;
             }
             // Cusp repairs: cuts along the field first, then the smallest spikes.
             let zips = [true, false].into_iter().find_map(|aligned| {
-                late_repair(&stage, &dirs, final_chords, opts, "cusps", true, |state, budget| {
+                late_repair(&stage, &dirs, final_chords, opts, "cusps", true, &passed, |state, budget| {
                     state.zip_cusps(budget, aligned)
                 })
             });
@@ -604,9 +608,10 @@ fn late_splits(
     trace: &TraceOptions,
     chords: usize,
     opts: &LayoutOptions,
+    passed: &OnceCell<Passed>,
 ) -> Option<(Stage, usize, usize)> {
     let vf = stage_vertex_field(stage, dirs);
-    late_repair(stage, dirs, chords, opts, "late splits", false, |state, budget| {
+    late_repair(stage, dirs, chords, opts, "late splits", false, passed, |state, budget| {
         let n = state.split_concave(&vf, trace, budget);
         if n < budget { n + state.split_to_quads(&vf, trace, budget - n) } else { n }
     })
@@ -671,14 +676,42 @@ fn cut_cones(
 /// Smallest share of its patch's area on either side of a seam cut through a cone-like tip.
 const CONE_MIN_SIDE: f64 = 0.05;
 
+/// A stage after the tiny pass that follows a late repair (a repair may cut off a sliver that
+/// then merges into another neighbour), measured: its share of quads, whether every patch is a
+/// disk, the tiny patches left, and the merges the pass made.
+struct Passed {
+    stage: Stage,
+    merges: usize,
+    share: f64,
+    disks: bool,
+    tiny: usize,
+}
+
+/// [`Passed`]: `stage`'s tiny pass, then its measures.
+fn after_tiny_pass(stage: &Stage, dirs: &FaceData<Vec3>, chords: usize, opts: &LayoutOptions) -> Passed {
+    let mut s = stage.clone();
+    let merges = tiny_pass(&mut s, dirs, chords, opts);
+    let fd = final_field(&s, dirs);
+    let rule = CornerRule::new(&s.mesh, &s.index).with_chords(chords).with_field(fd);
+    let p = patches_with(&s.mesh, &s.seam, &rule);
+    let quads = p.corners.iter().filter(|c| c.len() == 4).count();
+    let min_area = opts.min_patch_fraction * s.mesh.total_area();
+    let tiny = (0..p.n).filter(|&i| p.area[i] < min_area).count();
+    let disks = (0..p.n).all(|i| p.is_disk(i));
+    Passed { stage: s, merges, share: quads as f64 / p.n.max(1) as f64, disks, tiny }
+}
+
 /// A repair of the final, straightened seams: `propose` changes the seams of the merge/split
 /// state (at most `budget` changes; returns how many), the new seams are straightened with
 /// every existing seam vertex pinned (the other seams stay as they are), and the result is kept
 /// when, after the tiny pass, it has a larger share of quads, only disks and no more tiny
 /// patches than before; all the changes found are tried together, then (if that is not kept)
 /// a single one. With `tiny_first`, `propose` works on the stage after the tiny pass (the
-/// neighbours a repair hands faces to are then those of the final layout). Returns the new
-/// stage, the changes kept and the tiny merges they brought, or None when nothing is kept.
+/// neighbours a repair hands faces to are then those of the final layout). `passed` holds
+/// `stage` after its tiny pass ([`after_tiny_pass`]), filled on first use and shared by the
+/// repairs tried on the same stage. Returns the new stage, the changes kept and the tiny
+/// merges they brought, or None when nothing is kept.
+#[allow(clippy::too_many_arguments)]
 fn late_repair(
     stage: &Stage,
     dirs: &FaceData<Vec3>,
@@ -686,51 +719,26 @@ fn late_repair(
     opts: &LayoutOptions,
     what: &str,
     tiny_first: bool,
+    passed: &OnceCell<Passed>,
     propose: impl Fn(&mut State<'_>, usize) -> usize,
 ) -> Option<(Stage, usize, usize)> {
-    // Measured after the tiny pass that follows (a change may cut off a sliver that then
-    // merges into another neighbour): share of quads, all disks, tiny patches left.
-    let quad_share = |s: &Stage| {
-        let mut s = s.clone();
-        let merges = tiny_pass(&mut s, dirs, chords, opts);
-        let fd = final_field(&s, dirs);
-        let rule = CornerRule::new(&s.mesh, &s.index).with_chords(chords).with_field(fd);
-        let p = patches_with(&s.mesh, &s.seam, &rule);
-        let quads = p.corners.iter().filter(|c| c.len() == 4).count();
-        let min_area = opts.min_patch_fraction * s.mesh.total_area();
-        let tiny = (0..p.n).filter(|&i| p.area[i] < min_area).count();
-        let disks = (0..p.n).all(|i| p.is_disk(i));
-        (quads as f64 / p.n.max(1) as f64, disks, tiny, s, merges)
-    };
-    // The layout as it is, measured the same way (once, when there is a change to compare).
-    let mut current: Option<(f64, usize)> = None;
-    let orig = stage;
-    let passed;
-    let mut first_merges = 0;
-    let stage = if tiny_first {
-        let mut s = stage.clone();
-        first_merges = tiny_pass(&mut s, dirs, chords, opts);
-        passed = s;
-        &passed
-    } else {
-        orig
-    };
+    let orig = || passed.get_or_init(|| after_tiny_pass(stage, dirs, chords, opts));
+    let (stage, first_merges) = if tiny_first { (&orig().stage, orig().merges) } else { (stage, 0) };
     let pins = network::seam_degree(&stage.mesh, &stage.seam).map(|&d| d > 0);
     for budget in [opts.max_splits, 1] {
         let (seam, n) = on_stage(stage, dirs, chords, |state, _| propose(state, budget));
         if n == 0 {
             break;
         }
-        let (before, tiny_before) = *current.get_or_insert_with(|| {
-            let (share, _, tiny, ..) = quad_share(orig);
-            (share, tiny)
-        });
+        // The layout as it is, measured the same way (when there is a change to compare).
+        let (before, tiny_before) = (orig().share, orig().tiny);
         let mut alt = stage.clone();
         alt.seam = seam;
         // The repair is optional: if straightening the new seams fails, they are dropped.
         match smooth_quiet(alt, &pins, opts) {
             Ok((alt, ok)) => {
-                let (after, disks, tiny, alt, merges) = quad_share(&alt);
+                let Passed { stage: alt, merges, share: after, disks, tiny } =
+                    after_tiny_pass(&alt, dirs, chords, opts);
                 tracing::debug!(what, changes = n, merges, ok, before, after, disks, tiny, "late repair");
                 if ok && disks && tiny <= tiny_before && after > before {
                     return Some((alt, n, first_merges + merges));
