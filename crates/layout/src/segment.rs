@@ -954,7 +954,8 @@ fn touching_chains(polylines: &[Vec<crate::SurfacePoint>]) -> Vec<usize> {
     out.into_iter().collect()
 }
 
-/// Σ of vertex scores over the interior vertices of a region (no incident cut edge).
+/// Σ of vertex scores over the interior vertices of a region (no incident cut edge). `faces`
+/// are all the faces `label` gives the region's label (its first face's).
 fn region_score(
     mesh: &Mesh,
     faces: &[FaceId],
@@ -966,15 +967,21 @@ fn region_score(
         Some(&f) => label(f),
         None => return 0.0,
     };
-    let mut vs: Vec<VertexId> = faces.iter().flat_map(|&f| mesh.face_vertices(f)).collect();
-    vs.sort_unstable();
-    vs.dedup();
-    vs.into_iter()
-        .filter(|&v| {
-            !mesh.is_boundary_vertex(v) && mesh.outgoing(v).all(|h| label(mesh.face(h)) == own && !seam(mesh.edge(h)))
+    // Each vertex taken at one face, the face of its first outgoing halfedge: a vertex whose
+    // faces all lie in the region is met there once (no sort and dedup of every corner).
+    let mut vs: Vec<VertexId> = faces
+        .iter()
+        .flat_map(|&f| mesh.face_vertices(f).into_iter().map(move |v| (f, v)))
+        .filter(|&(f, v)| {
+            !mesh.is_boundary_vertex(v)
+                && mesh.face(mesh.vertex_halfedge(v)) == f
+                && mesh.outgoing(v).all(|h| label(mesh.face(h)) == own && !seam(mesh.edge(h)))
         })
-        .map(|v| scores[v])
-        .sum()
+        .map(|(_, v)| v)
+        .collect();
+    // Summed in vertex order, as ever.
+    vs.sort_unstable();
+    vs.into_iter().map(|v| scores[v]).sum()
 }
 
 /// The connected pieces (through shared vertices) of a set of edges.
@@ -1145,13 +1152,6 @@ impl<'a> State<'a> {
         out
     }
 
-    /// Evaluate removing `edges` between `a` and `b`: the union's topology and score, or None if
-    /// a singularity would end up inside.
-    fn evaluate(&self, a: u32, b: u32, edges: &[EdgeId]) -> Option<(RegionInfo, f64, Vec<FaceId>)> {
-        let (info, score, union) = self.evaluate_with(a, b, edges, false, true)?;
-        Some((info, score?, union))
-    }
-
     /// The faces of patches `a` and `b` (sorted).
     fn union_faces(&self, a: u32, b: u32) -> Vec<FaceId> {
         let mut union: Vec<FaceId> = self.faces[a as usize].clone();
@@ -1182,16 +1182,18 @@ impl<'a> State<'a> {
         touched
     }
 
-    /// [`Self::evaluate`], optionally accepting a removal that leaves a singularity without a
-    /// seam (the caller then joins it to the seams again); the score only when `scored` (the
-    /// tiny merges do not use it).
+    /// Evaluate removing `edges` between `a` and `b`: the union's topology, its developability
+    /// score ([`region_score`]) when `scored` asks for it given the topology (the tiny merges
+    /// never use it, the quad merges only for a quad disk), and its faces; None if a
+    /// singularity would end up inside (unless `allow_exposing`: the caller then joins it to the
+    /// seams again) or the union would be too wide.
     fn evaluate_with(
         &self,
         a: u32,
         b: u32,
         edges: &[EdgeId],
         allow_exposing: bool,
-        scored: bool,
+        scored: impl Fn(&RegionInfo) -> bool,
     ) -> Option<(RegionInfo, Option<f64>, Vec<FaceId>)> {
         // Singularities exposed by the removal.
         let mut removed_at: BTreeMap<VertexId, u32> = BTreeMap::new();
@@ -1235,7 +1237,7 @@ impl<'a> State<'a> {
             }
         }
         let info = region_info(self.mesh, &union, &label, &seam, &self.rule);
-        let score = scored.then(|| region_score(self.mesh, &union, &label, &seam, self.scores));
+        let score = scored(&info).then(|| region_score(self.mesh, &union, &label, &seam, self.scores));
         Some((info, score, union))
     }
 
@@ -1285,6 +1287,8 @@ impl<'a> State<'a> {
         let mut merges = 0;
         // Cache of evaluated pairs: (a, b) → candidate if acceptable.
         let mut cache: BTreeMap<(u32, u32), Option<Candidate>> = BTreeMap::new();
+        // Corner counts of the patches, once computed (forgotten with the pairs a merge touches).
+        let mut counts: BTreeMap<u32, usize> = BTreeMap::new();
         loop {
             let interfaces = self.interfaces();
             let mut pairs: Vec<((u32, u32), Vec<EdgeId>)> = interfaces.into_iter().collect();
@@ -1298,19 +1302,24 @@ impl<'a> State<'a> {
                     Some(c) if c.as_ref().is_none_or(|c| c.edges == edges) => {
                         c.as_ref().map(|c| Candidate { a, b, edges: c.edges.clone(), score: c.score, length: c.length })
                     }
+                    // Merging two quads fixes no corners: not worth measuring the union.
+                    _ if fix_only && self.all_quads(a, b, &mut counts) => {
+                        cache.insert(key, None);
+                        None
+                    }
                     _ => {
-                        let c = self.evaluate(a, b, &edges).and_then(|(info, score, _)| {
-                            (info.is_disk()
-                                && info.corners.len() == 4
-                                && score <= max_dev
-                                && (!fix_only || self.merge_fixes_corners(a, b, &edges)))
-                            .then(|| Candidate {
-                                a,
-                                b,
-                                length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
-                                edges: edges.clone(),
-                                score,
-                            })
+                        // Scored only when the union is a quad disk: the score's absence says it is not.
+                        let quad_disk = |info: &RegionInfo| info.is_disk() && info.corners.len() == 4;
+                        let c = self.evaluate_with(a, b, &edges, false, quad_disk).and_then(|(_, score, _)| {
+                            let score = score?;
+                            (score <= max_dev && (!fix_only || self.merge_fixes_corners(a, b, &edges, &mut counts)))
+                                .then(|| Candidate {
+                                    a,
+                                    b,
+                                    length: edges.iter().map(|&e| self.mesh.edge_length(e)).sum(),
+                                    edges: edges.clone(),
+                                    score,
+                                })
                         });
                         cache.insert(
                             key,
@@ -1338,7 +1347,7 @@ impl<'a> State<'a> {
             let Some(c) = best else { break };
             // The patches beside the removed seam may have changed since the candidate was
             // cached (their own neighbours merged): check again.
-            if fix_only && !self.merge_fixes_corners(c.a, c.b, &c.edges) {
+            if fix_only && !self.merge_fixes_corners(c.a, c.b, &c.edges, &mut counts) {
                 cache.insert((c.a, c.b), None);
                 continue;
             }
@@ -1347,6 +1356,7 @@ impl<'a> State<'a> {
             let touched = self.touched_by(&union);
             self.apply(c.a, c.b, &c.edges, union);
             cache.retain(|&(x, y), _| !touched.contains(&x) && !touched.contains(&y));
+            counts.retain(|p, _| !touched.contains(p));
             merges += 1;
         }
         merges
@@ -1355,8 +1365,9 @@ impl<'a> State<'a> {
     /// Whether merging `b` into `a` across `edges` (the union a quad) helps the layout: the
     /// patches at the removed seam (the two, and the others whose corners the removal changes)
     /// keep at least as many quads and get no further from four corners in total, and at least
-    /// one of the two was not a quad.
-    fn merge_fixes_corners(&self, a: u32, b: u32, edges: &[EdgeId]) -> bool {
+    /// one of the two was not a quad. `counts` keeps the patches' corner counts
+    /// ([`Self::corner_count`]).
+    fn merge_fixes_corners(&self, a: u32, b: u32, edges: &[EdgeId], counts: &mut BTreeMap<u32, usize>) -> bool {
         let mesh = self.mesh;
         let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
         let others: BTreeSet<u32> = edges
@@ -1368,21 +1379,32 @@ impl<'a> State<'a> {
             .collect();
         let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
         let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
-        let mut counts_before: Vec<usize> = vec![self.info_of(a).corners.len()];
-        if a != b {
-            counts_before.push(self.info_of(b).corners.len());
-        }
-        if counts_before.iter().all(|&c| c == 4) {
+        if self.all_quads(a, b, counts) {
             return false;
+        }
+        let mut counts_before: Vec<usize> = vec![self.corner_count(a, counts)];
+        if a != b {
+            counts_before.push(self.corner_count(b, counts));
         }
         let mut counts_after: Vec<usize> = vec![4];
         for &q in &others {
-            counts_before.push(self.info_of(q).corners.len());
+            counts_before.push(self.corner_count(q, counts));
             counts_after.push(region_info(mesh, &self.faces[q as usize], &label, &seam, &self.rule).corners.len());
         }
         let quads = |c: &[usize]| c.iter().filter(|&&k| k == 4).count();
         let bad = |c: &[usize]| c.iter().map(|&k| k.abs_diff(4)).sum::<usize>();
         quads(&counts_after) >= quads(&counts_before) && bad(&counts_after) <= bad(&counts_before)
+    }
+
+    /// The corners of patch `p` ([`Self::info_of`]), kept in `counts` (the caller forgets a
+    /// patch's entry when a change can move its corners).
+    fn corner_count(&self, p: u32, counts: &mut BTreeMap<u32, usize>) -> usize {
+        *counts.entry(p).or_insert_with(|| self.info_of(p).corners.len())
+    }
+
+    /// Whether patches `a` and `b` (equal for a dangling seam) are both quads.
+    fn all_quads(&self, a: u32, b: u32, counts: &mut BTreeMap<u32, usize>) -> bool {
+        self.corner_count(a, counts) == 4 && (a == b || self.corner_count(b, counts) == 4)
     }
 
     /// Split non-quad patches at their concave corners (an angle of three quarter turns, an
@@ -1989,7 +2011,7 @@ impl<'a> State<'a> {
                         continue;
                     }
                     let edges = &key.2;
-                    if let Some((info, _, union)) = self.evaluate_with(keep, gone, edges, allow_exposing, false)
+                    if let Some((info, _, union)) = self.evaluate_with(keep, gone, edges, allow_exposing, |_| false)
                         && info.is_disk()
                     {
                         let touched = self.touched_by(&union);
@@ -2066,7 +2088,9 @@ impl<'a> State<'a> {
 
     /// Split the patch with the largest `measure` above `threshold` in two disks (spectral
     /// clustering, the seam traced along the field), until none is above it, up to
-    /// `max_splits`; a patch that cannot be split is left.
+    /// `max_splits`; a patch that cannot be split is left. `measure` may depend on a patch's
+    /// faces and on the labels and seams at them, not on other patches': a split changes only
+    /// its own patch's, so the others keep their measure from one split to the next.
     fn split_worst(
         &mut self,
         threshold: f64,
@@ -2078,14 +2102,16 @@ impl<'a> State<'a> {
         let seed = trace.seed;
         let mut splits = 0;
         let mut failed: BTreeSet<u32> = BTreeSet::new();
+        let mut measured: Vec<Option<f64>> = Vec::new();
         while splits < max_splits {
             // The worst patch above the threshold that has not failed to split.
             let mut worst: Option<(f64, u32)> = None;
+            measured.resize(self.faces.len(), None);
             for p in 0..self.faces.len() as u32 {
                 if self.faces[p as usize].is_empty() || failed.contains(&p) {
                     continue;
                 }
-                let s = measure(self, p);
+                let s = *measured[p as usize].get_or_insert_with(|| measure(self, p));
                 if s > threshold && worst.is_none_or(|(w, _)| s > w) {
                     worst = Some((s, p));
                 }
@@ -2113,6 +2139,7 @@ impl<'a> State<'a> {
                 field_aligned_split(self.mesh, &self.faces[p as usize], &label, &seam, &split, vf, trace, &self.rule)
                     .unwrap_or(split);
             self.apply_split(p, split.a, split.b);
+            measured[p as usize] = None;
             splits += 1;
         }
         Ok(splits)
