@@ -318,6 +318,31 @@ mod tests {
     }
 
     #[test]
+    fn tiny_loops_are_cut_and_wide_ones_left() {
+        // The stretch of a cut line where a random star polygon's crossed itself (r = 40.1):
+        // two vertices 5e-8 mm apart, the edges either side crossing 3e-9 mm from them.
+        let poly = vec![
+            [0.0, -200.0],
+            [100.0, -200.0],
+            [100.0, 100.0],
+            [-127.85974836282112, 19.41308585830639],
+            [-134.42059898846333, -81.10229865007541],
+            [-134.4205989416946, -81.10229863859657],
+            [-135.15628834972864, -81.0542786576162],
+            [-137.75591669801554, -120.88183334362368],
+        ];
+        assert!(find_self_intersection(&poly).is_some());
+        let r = 40.107853712255384;
+        let cut = cut_small_loops(poly.clone(), 1e-7 * r);
+        assert!(find_self_intersection(&cut).is_none(), "{cut:?}");
+        assert_eq!(cut.len(), poly.len() - 1);
+        assert!((signed_area(&cut) - signed_area(&poly)).abs() < 1e-9);
+        // A bow tie is no rounding artefact: left for the caller to report.
+        let bow = vec![[0.0, 0.0], [10.0, 10.0], [10.0, 0.0], [0.0, 10.0]];
+        assert_eq!(cut_small_loops(bow.clone(), 1e-7 * r), bow);
+    }
+
+    #[test]
     fn sharp_corner_is_clipped_not_bevelled() {
         // A needle triangle: its tip turns by almost 180°.
         let tri = [[0.0, 0.0], [200.0, 5.0], [0.0, 10.0]];
