@@ -389,3 +389,18 @@ fn warp_along_puts_the_chosen_yarn_on_the_largest_stretch() {
     let t = run_configured("run", &out, "[pattern]\nwarp_along = \"bias\"\n", &[], 2);
     assert_mentions(&t, "warp_along");
 }
+
+/// A patch bounded by one seam alone, a closed loop (the torus 2 m across, hung along +x from a
+/// 109 mm band, seed 41, makes one in a layout it tries): its seam runs round the whole outline
+/// from the seam's start. The pattern stage took that for an empty seam side and stopped the
+/// run with an internal error (exit 1); found by fuzzing random scenarios.
+#[test]
+fn a_patch_bounded_by_a_closed_seam_is_cut() {
+    let out = tmpdir("closed-seam");
+    let toml = "seed = 41\n[mesh]\nup = \"+x\"\n[suspension]\nmode = \"top-band\"\nband = 0.109\n";
+    let mesh = data("closed/torus.obj");
+    run_configured("run", &out, toml, &[mesh.to_str().unwrap(), "--height", "2.0"], 0);
+    let s = summary(&out);
+    assert_eq!(s["patterns"]["pieces"], s["segmentation"]["patches"]);
+    assert_eq!(cut_pieces(&out) as u64, s["patterns"]["pieces"].as_u64().unwrap());
+}

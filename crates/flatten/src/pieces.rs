@@ -151,7 +151,9 @@ pub struct SeamRun {
     pub seam: usize,
     /// Outline index where the run starts (walking counter-clockwise).
     pub start: usize,
-    /// Outline index where it ends (inclusive).
+    /// Outline index where it ends (inclusive). Equal to `start` for a seam that is a closed
+    /// loop round the whole outline: the run then starts and ends at the seam's first vertex,
+    /// on both of its sides.
     pub end: usize,
     /// Whether walking counter-clockwise from start to end follows the seam's own direction.
     pub forward: bool,
@@ -495,7 +497,7 @@ fn lay_piece(ctx: &PieceContext<'_>, p: usize, fs: &[FaceId]) -> Result<LaidPiec
     let dev = weighted_median(samples.clone());
     let other_samples = mapped.iter().map(|&(t, a, _)| (fiber_angle(t + phi_other), a)).collect();
     let stats = distortion(&pm, &uv);
-    let runs = seam_runs(&uv, &outline, &seg_vertex, ctx.seam_edge);
+    let runs = seam_runs(&uv, &outline, &seg_vertex, ctx.seam_edge, |s| ctx.seg.seams[s].vertices.first().copied());
     Ok(LaidPiece {
         patch: FlatPatch {
             patch: p as u32,
@@ -648,12 +650,15 @@ fn weighted_median(mut samples: Vec<(f64, f64)>) -> f64 {
 }
 
 /// The seam sides along a piece's outline: maximal runs of outline edges belonging to the same
-/// seam in the same direction.
+/// seam in the same direction. A seam round the whole outline (a closed loop) is one run from
+/// and back to the seam's first vertex (`seam_start`, on the segmented mesh), so that its two
+/// sides start at the same point of the mold.
 fn seam_runs(
     uv: &VertexData<Vec2>,
     outline: &[VertexId],
     seg_vertex: &VertexData<VertexId>,
     seam_edge: &HashMap<(VertexId, VertexId), usize>,
+    seam_start: impl Fn(usize) -> Option<VertexId>,
 ) -> Vec<SeamRun> {
     let n = outline.len();
     // Per outline edge i (outline[i] → outline[i+1]): (seam, forward).
@@ -669,7 +674,9 @@ fn seam_runs(
         return match key.first().copied().flatten() {
             Some((seam, forward)) => {
                 let length = (0..n).map(|i| (uv[outline[(i + 1) % n]] - uv[outline[i]]).norm()).sum();
-                vec![SeamRun { seam, start: 0, end: 0, forward, length }]
+                let start =
+                    seam_start(seam).and_then(|v| outline.iter().position(|&u| seg_vertex[u] == v)).unwrap_or(0);
+                vec![SeamRun { seam, start, end: start, forward, length }]
             }
             None => Vec::new(),
         };
@@ -968,3 +975,38 @@ pub fn outline_crossing(uv: &VertexData<Vec2>, outline: &[VertexId]) -> Option<(
 /// The margin by which a flattened outline must miss itself, relative to its perimeter
 /// ([`outline_crossing`]).
 const OUTLINE_MARGIN: f64 = 1e-9;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::TAU;
+
+    /// A piece bounded by one seam alone (a closed loop): one run round the whole outline,
+    /// starting and ending where the seam starts, whichever outline vertex comes first; a seam
+    /// met partly gives an ordinary run.
+    #[test]
+    fn a_closed_seam_is_one_run_from_its_start() {
+        let n = 6;
+        let outline: Vec<VertexId> = (0..n).map(VertexId::new).collect();
+        let seg_vertex: VertexData<VertexId> = (0..n).map(|i| VertexId::new((i + 2) % n)).collect();
+        let uv: VertexData<Vec2> = (0..n)
+            .map(|i| {
+                let a = i as f64 * TAU / n as f64;
+                Vec2::new(a.cos(), a.sin())
+            })
+            .collect();
+        // Seam 3 walks the loop of segmented vertices 4 → 3 → 2 → 1 → 0 → 5 → 4, against the
+        // outline's order.
+        let chain: Vec<VertexId> = [4, 3, 2, 1, 0, 5, 4].into_iter().map(VertexId::new).collect();
+        let seam_edge: HashMap<(VertexId, VertexId), usize> = chain.windows(2).map(|w| ((w[0], w[1]), 3)).collect();
+        let runs = seam_runs(&uv, &outline, &seg_vertex, &seam_edge, |_| Some(VertexId::new(4)));
+        assert_eq!(runs.len(), 1, "{runs:?}");
+        // Outline vertex 2 is segmented vertex 4, where the seam starts.
+        assert_eq!((runs[0].seam, runs[0].start, runs[0].end, runs[0].forward), (3, 2, 2, false));
+        assert!((runs[0].length - 6.0).abs() < 1e-12);
+        // Half of the loop a seam: one run over outline edges 5, 0 and 1.
+        let half: HashMap<(VertexId, VertexId), usize> = chain[..4].windows(2).map(|w| ((w[0], w[1]), 3)).collect();
+        let runs = seam_runs(&uv, &outline, &seg_vertex, &half, |_| Some(VertexId::new(4)));
+        assert_eq!(runs.iter().map(|r| (r.start, r.end)).collect::<Vec<_>>(), vec![(5, 2)], "{runs:?}");
+    }
+}

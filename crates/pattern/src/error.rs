@@ -105,7 +105,9 @@ pub enum PatternError {
         /// Number of outline points.
         points: usize,
     },
-    /// A seam side with `start == end`.
+    /// A seam side whose path along the outline cannot be built. Not produced since
+    /// `start == end` became a seam round the whole outline (a closed loop); kept so that code
+    /// matching on it still compiles.
     #[error("piece {piece}: seam {seam} starts and ends at outline index {index}")]
     EmptySeamSide {
         /// Piece id.

@@ -30,7 +30,8 @@ pub struct SeamSide {
     /// Outline index where the run starts (walking counter-clockwise, i.e. by increasing
     /// index, wrapping).
     pub start: usize,
-    /// Outline index where the run ends (inclusive vertex); `start == end` is not allowed.
+    /// Outline index where the run ends (inclusive vertex). `start == end` is a seam round the
+    /// whole outline (a closed loop: a piece bounded by one seam), from `start` back to it.
     pub end: usize,
     /// True if walking counter-clockwise from `start` to `end` follows the seam's own
     /// direction (its 3D start → end); false if opposite.

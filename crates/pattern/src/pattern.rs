@@ -49,8 +49,8 @@ pub struct Text {
 pub struct Notch {
     /// Seam id.
     pub seam: usize,
-    /// Index along the seam: 0 at its 3D start, `count − 1` at its end; notch k of one side
-    /// meets notch k of the other.
+    /// Index along the seam: 0 at its 3D start, `count − 1` at its end (a closed seam has no
+    /// notch at its end, which is its start); notch k of one side meets notch k of the other.
     pub index: usize,
     /// Normalised arc length along the seam, in [0, 1].
     pub t: f64,
@@ -231,7 +231,12 @@ pub fn build_pattern(pieces: &[PieceInput], opts: &PatternOptions) -> Result<Pat
         if count > MAX_NOTCHES_PER_SEAM as f64 {
             return Err(PatternError::TooManyNotches { seam, count, limit: MAX_NOTCHES_PER_SEAM });
         }
-        let params = notch_params(mean, opts.notch_spacing_mm);
+        let mut params = notch_params(mean, opts.notch_spacing_mm);
+        // Round a closed seam (a side from its start back to it) the end is the start again:
+        // one notch there.
+        if sides.iter().any(|&(pi, si)| pieces[pi].seams[si].start == pieces[pi].seams[si].end) {
+            params.pop();
+        }
         for (&(pi, si), path) in sides.iter().zip(&paths) {
             for (index, &t) in params.iter().enumerate() {
                 let (position, normal) = path.at(t * path.length());

@@ -43,7 +43,7 @@ impl SidePath {
     /// Builds the path of `side` on `outline`; `None` if its indices are invalid.
     pub fn new(outline: &[P2], side: &SeamSide) -> Option<SidePath> {
         let n = outline.len();
-        if side.start >= n || side.end >= n || side.start == side.end {
+        if side.start >= n || side.end >= n {
             return None;
         }
         let edges = side_edge_count(side, n);

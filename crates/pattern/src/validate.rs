@@ -36,7 +36,10 @@ pub fn validate_options(o: &PatternOptions) -> Result<(), PatternError> {
 
 /// The number of outline edges of a seam side (walking counter-clockwise from start to end).
 pub fn side_edge_count(side: &SeamSide, n: usize) -> usize {
-    (side.end + n - side.start) % n
+    match (side.end + n - side.start) % n {
+        0 => n, // round the whole outline
+        k => k,
+    }
 }
 
 /// Checks one piece: coordinates, size, orientation, simplicity, seam indices and overlaps.
@@ -84,9 +87,6 @@ pub fn validate_piece(p: &PieceInput) -> Result<(), PatternError> {
             if index >= n {
                 return Err(PatternError::SeamIndexOutOfRange { piece, seam: s.seam, index, points: n });
             }
-        }
-        if s.start == s.end {
-            return Err(PatternError::EmptySeamSide { piece, seam: s.seam, index: s.start });
         }
         for k in 0..side_edge_count(s, n) {
             let edge = (s.start + k) % n;

@@ -253,9 +253,10 @@ fn every_validation_error_is_reached() {
     let mut p = sq(6);
     p.seams = vec![side(1, 0, 4, true)];
     assert!(matches!(err(&[p], &o), PatternError::SeamIndexOutOfRange { piece: 6, seam: 1, index: 4, points: 4 }));
+    // A side from index 2 back to it is round the whole outline: another side overlaps it.
     let mut p = sq(6);
-    p.seams = vec![side(1, 2, 2, true)];
-    assert!(matches!(err(&[p], &o), PatternError::EmptySeamSide { piece: 6, seam: 1, index: 2 }));
+    p.seams = vec![side(1, 2, 2, true), side(2, 0, 1, true)];
+    assert!(matches!(err(&[p], &o), PatternError::OverlappingSeamSides { piece: 6, seam_a: 1, seam_b: 2, edge: 0 }));
     let mut p = sq(6);
     p.seams = vec![side(1, 0, 2, true), side(2, 1, 3, true)];
     assert!(matches!(err(&[p], &o), PatternError::OverlappingSeamSides { piece: 6, seam_a: 1, seam_b: 2, edge: 1 }));
@@ -422,4 +423,27 @@ fn labels_shrink_on_small_pieces() {
     // The name stays inside the small piece's sewing line.
     let p = &pat.pieces[0];
     assert!(point_in_polygon(p.labels[0].position, &p.sew), "{:?}", p.labels[0].position);
+}
+
+/// A seam that is a closed loop (two pieces each bounded by it alone, as the two halves of a
+/// sphere cut along its equator): each side runs from its start round the whole outline back to
+/// it; the notches of the two sides match, one at the start and none doubled at the end.
+#[test]
+fn a_closed_seam_runs_round_the_whole_outline() {
+    let o = PatternOptions { notch_spacing_mm: 90.0, ..Default::default() };
+    // The same loop on both pieces, started at different outline indices (the seam's start is
+    // outline index 1 of one, 3 of the other), walked the other way round on the second.
+    let (mut a, mut b) = (sq(1), sq(2));
+    a.seams = vec![side(5, 1, 1, true)];
+    b.seams = vec![side(5, 3, 3, false)];
+    let pat = build_pattern(&[a.clone(), b.clone()], &o).expect("a closed seam is valid");
+    let notches = |k: usize| -> Vec<(usize, f64)> {
+        pat.pieces[k].notches.iter().map(|n| (n.index, (n.t * 1e9).round() / 1e9)).collect()
+    };
+    // 400 mm of seam at 90 mm: the start and four interior notches, no end notch.
+    assert_eq!(notches(0).len(), 5, "{:?}", notches(0));
+    assert_eq!(notches(0), notches(1));
+    assert_eq!(pat.pieces[0].notches[0].position, a.outline[1]);
+    assert_eq!(pat.pieces[1].notches[0].position, b.outline[3]);
+    assert_eq!(pat.pieces[0].seam_labels.len(), 1);
 }
