@@ -169,6 +169,12 @@ fn scenario_errors_exit_2() {
     let dome = data("open/hemisphere.off");
     let t = expect_exit(&run_stage("simulate", &out, None, &[dome.to_str().unwrap()]), 2);
     assert_mentions(&t, "spill");
+    // What --repair leaves of a tetrahedron with a NaN corner is one open triangle, refined:
+    // the vertex named is the deepest, and of those the input file's (0 and 1 lie at the
+    // bottom, with the midpoints the refinement put between them), not one the refinement added.
+    let nan = data("handmade/nan_coordinate.obj");
+    let t = expect_exit(&run_stage("simulate", &out, None, &["--repair", nan.to_str().unwrap()]), 2);
+    assert_mentions(&t, "boundary vertex 0 (boundary loop 0) lies 1.0000 m below the fill level");
     // The same dome hung upside down and held at its rim works.
     let cfg = write_config(
         &out,

@@ -132,7 +132,7 @@ pub enum SimError {
     SpillingBoundary {
         /// Loop index.
         boundary_loop: usize,
-        /// The vertex.
+        /// The deepest free rim vertex (of equally deep ones, the lowest-numbered).
         vertex: VertexId,
         /// Its depth below the level (m).
         depth: f64,
@@ -672,16 +672,24 @@ fn simulate_with_rest(
     if rest.is_none() && constraints.clamped_vertices() == mesh.n_vertices() {
         return Err(SimError::AllClamped { vertices: mesh.n_vertices() });
     }
-    for (li, v) in free_rim(mesh, &constraints) {
-        if let Some(hy) = &hydro {
+    // A free rim below the level: the deepest of its vertices named (the lowest-numbered of
+    // equally deep ones, so an input file's vertex before one the refinement added).
+    if let Some(hy) = &hydro {
+        let mut deepest: Option<(f64, usize, VertexId)> = None;
+        for (li, v) in free_rim(mesh, &constraints) {
             let d = hy.depth(&mesh.position(v));
-            if d > 1e-9 * (top - low) {
-                return Err(SimError::SpillingBoundary { boundary_loop: li, vertex: v, depth: d });
+            if d > 1e-9 * (top - low) && deepest.is_none_or(|(dd, _, dv)| d > dd || (d == dd && v < dv)) {
+                deepest = Some((d, li, v));
             }
         }
-        if loads.head_pressure != 0.0 {
-            return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
+        if let Some((depth, boundary_loop, vertex)) = deepest {
+            return Err(SimError::SpillingBoundary { boundary_loop, vertex, depth });
         }
+    }
+    if loads.head_pressure != 0.0
+        && let Some((_, v)) = free_rim(mesh, &constraints).next()
+    {
+        return Err(SimError::HeadPressureOnFreeBoundary { vertex: v });
     }
     let p_max = hydro.map(|h| h.rho_g * (h.fill_height - low)).unwrap_or(0.0)
         + loads.head_pressure.abs()
