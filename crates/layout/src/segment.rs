@@ -1396,6 +1396,32 @@ impl<'a> State<'a> {
         quads(&counts_after) >= quads(&counts_before) && bad(&counts_after) <= bad(&counts_before)
     }
 
+    /// The patches whose [`Self::info_of`] can differ from what it was under `label` and `seam`
+    /// (this state's earlier labels and seams): those that gained or lost a face, and those with
+    /// a face at a vertex of a relabelled face or of an edge whose seam flag changed (a region's
+    /// measure reads only the labels and seams at its own vertices).
+    fn touched_since(&self, label: &FaceData<u32>, seam: &EdgeData<bool>) -> BTreeSet<u32> {
+        let mesh = self.mesh;
+        let mut out = BTreeSet::new();
+        let mut at: Vec<VertexId> = Vec::new();
+        for f in mesh.face_ids() {
+            if label[f] != self.label[f] {
+                out.insert(label[f]);
+                out.insert(self.label[f]);
+                at.extend(mesh.face_vertices(f));
+            }
+        }
+        for e in mesh.edges() {
+            if seam[e] != self.seam[e] {
+                at.extend(mesh.edge_vertices(e));
+            }
+        }
+        for v in at {
+            out.extend(mesh.vertex_faces(v).map(|g| self.label[g]));
+        }
+        out
+    }
+
     /// The corners of patch `p` ([`Self::info_of`]), kept in `counts` (the caller forgets a
     /// patch's entry when a change can move its corners).
     fn corner_count(&self, p: u32, counts: &mut BTreeMap<u32, usize>) -> usize {
@@ -1498,12 +1524,16 @@ impl<'a> State<'a> {
     ) -> usize {
         let mut done = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
+        // Each patch's measure, kept until a repair changes the labels or seams at its vertices.
+        let mut infos: Vec<Option<RegionInfo>> = Vec::new();
         'outer: while done < max {
+            let (label, seam) = (self.label.clone(), self.seam.clone());
+            infos.resize(self.faces.len(), None);
             for p in 0..self.faces.len() as u32 {
                 if self.faces[p as usize].is_empty() {
                     continue;
                 }
-                let info = self.info_of(p);
+                let info = infos[p as usize].get_or_insert_with(|| self.info_of(p)).clone();
                 if info.corners.len() == 4 {
                     continue;
                 }
@@ -1513,6 +1543,11 @@ impl<'a> State<'a> {
                     }
                     if repair(self, p, v, &info) {
                         done += 1;
+                        for q in self.touched_since(&label, &seam) {
+                            if let Some(slot) = infos.get_mut(q as usize) {
+                                *slot = None;
+                            }
+                        }
                         continue 'outer;
                     }
                     failed.insert((p, v));
