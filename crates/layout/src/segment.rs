@@ -1070,6 +1070,30 @@ fn least_to_beat(best: Option<(usize, bool)>) -> usize {
     best.map_or(1, |(gain, wins_tie)| if wins_tie { gain } else { gain + 1 }).max(1)
 }
 
+/// Patch measures ([`State::info_of`]) once computed, kept until the caller forgets a patch a
+/// change may have touched.
+#[derive(Default)]
+struct InfoCache(Vec<Option<RegionInfo>>);
+
+impl InfoCache {
+    /// The measure of patch `p`.
+    fn get(&mut self, state: &State<'_>, p: u32) -> &RegionInfo {
+        if self.0.len() <= p as usize {
+            self.0.resize(p as usize + 1, None);
+        }
+        self.0[p as usize].get_or_insert_with(|| state.info_of(p))
+    }
+
+    /// Forget the measures of `patches`.
+    fn forget(&mut self, patches: &BTreeSet<u32>) {
+        for &q in patches {
+            if let Some(slot) = self.0.get_mut(q as usize) {
+                *slot = None;
+            }
+        }
+    }
+}
+
 /// A candidate merge: patches `a` and `b` (equal for removing a dangling seam) and the edges
 /// to remove.
 struct Candidate {
@@ -1287,8 +1311,8 @@ impl<'a> State<'a> {
         let mut merges = 0;
         // Cache of evaluated pairs: (a, b) → candidate if acceptable.
         let mut cache: BTreeMap<(u32, u32), Option<Candidate>> = BTreeMap::new();
-        // Corner counts of the patches, once computed (forgotten with the pairs a merge touches).
-        let mut counts: BTreeMap<u32, usize> = BTreeMap::new();
+        // The patches' measures, forgotten with the pairs a merge touches.
+        let mut infos = InfoCache::default();
         loop {
             let interfaces = self.interfaces();
             let mut pairs: Vec<((u32, u32), Vec<EdgeId>)> = interfaces.into_iter().collect();
@@ -1303,7 +1327,7 @@ impl<'a> State<'a> {
                         c.as_ref().map(|c| Candidate { a, b, edges: c.edges.clone(), score: c.score, length: c.length })
                     }
                     // Merging two quads fixes no corners: not worth measuring the union.
-                    _ if fix_only && self.all_quads(a, b, &mut counts) => {
+                    _ if fix_only && self.all_quads(a, b, &mut infos) => {
                         cache.insert(key, None);
                         None
                     }
@@ -1312,7 +1336,7 @@ impl<'a> State<'a> {
                         let quad_disk = |info: &RegionInfo| info.is_disk() && info.corners.len() == 4;
                         let c = self.evaluate_with(a, b, &edges, false, quad_disk).and_then(|(_, score, _)| {
                             let score = score?;
-                            (score <= max_dev && (!fix_only || self.merge_fixes_corners(a, b, &edges, &mut counts)))
+                            (score <= max_dev && (!fix_only || self.merge_fixes_corners(a, b, &edges, &mut infos)))
                                 .then(|| Candidate {
                                     a,
                                     b,
@@ -1347,7 +1371,7 @@ impl<'a> State<'a> {
             let Some(c) = best else { break };
             // The patches beside the removed seam may have changed since the candidate was
             // cached (their own neighbours merged): check again.
-            if fix_only && !self.merge_fixes_corners(c.a, c.b, &c.edges, &mut counts) {
+            if fix_only && !self.merge_fixes_corners(c.a, c.b, &c.edges, &mut infos) {
                 cache.insert((c.a, c.b), None);
                 continue;
             }
@@ -1356,7 +1380,7 @@ impl<'a> State<'a> {
             let touched = self.touched_by(&union);
             self.apply(c.a, c.b, &c.edges, union);
             cache.retain(|&(x, y), _| !touched.contains(&x) && !touched.contains(&y));
-            counts.retain(|p, _| !touched.contains(p));
+            infos.forget(&touched);
             merges += 1;
         }
         merges
@@ -1365,9 +1389,8 @@ impl<'a> State<'a> {
     /// Whether merging `b` into `a` across `edges` (the union a quad) helps the layout: the
     /// patches at the removed seam (the two, and the others whose corners the removal changes)
     /// keep at least as many quads and get no further from four corners in total, and at least
-    /// one of the two was not a quad. `counts` keeps the patches' corner counts
-    /// ([`Self::corner_count`]).
-    fn merge_fixes_corners(&self, a: u32, b: u32, edges: &[EdgeId], counts: &mut BTreeMap<u32, usize>) -> bool {
+    /// one of the two was not a quad. `infos` keeps the patches' measures.
+    fn merge_fixes_corners(&self, a: u32, b: u32, edges: &[EdgeId], infos: &mut InfoCache) -> bool {
         let mesh = self.mesh;
         let removed: BTreeSet<EdgeId> = edges.iter().copied().collect();
         let others: BTreeSet<u32> = edges
@@ -1379,16 +1402,16 @@ impl<'a> State<'a> {
             .collect();
         let label = |f: FaceId| if self.label[f] == b { a } else { self.label[f] };
         let seam = |e: EdgeId| self.seam[e] && !removed.contains(&e);
-        if self.all_quads(a, b, counts) {
+        if self.all_quads(a, b, infos) {
             return false;
         }
-        let mut counts_before: Vec<usize> = vec![self.corner_count(a, counts)];
+        let mut counts_before: Vec<usize> = vec![infos.get(self, a).corners.len()];
         if a != b {
-            counts_before.push(self.corner_count(b, counts));
+            counts_before.push(infos.get(self, b).corners.len());
         }
         let mut counts_after: Vec<usize> = vec![4];
         for &q in &others {
-            counts_before.push(self.corner_count(q, counts));
+            counts_before.push(infos.get(self, q).corners.len());
             counts_after.push(region_info(mesh, &self.faces[q as usize], &label, &seam, &self.rule).corners.len());
         }
         let quads = |c: &[usize]| c.iter().filter(|&&k| k == 4).count();
@@ -1422,15 +1445,9 @@ impl<'a> State<'a> {
         out
     }
 
-    /// The corners of patch `p` ([`Self::info_of`]), kept in `counts` (the caller forgets a
-    /// patch's entry when a change can move its corners).
-    fn corner_count(&self, p: u32, counts: &mut BTreeMap<u32, usize>) -> usize {
-        *counts.entry(p).or_insert_with(|| self.info_of(p).corners.len())
-    }
-
     /// Whether patches `a` and `b` (equal for a dangling seam) are both quads.
-    fn all_quads(&self, a: u32, b: u32, counts: &mut BTreeMap<u32, usize>) -> bool {
-        self.corner_count(a, counts) == 4 && (a == b || self.corner_count(b, counts) == 4)
+    fn all_quads(&self, a: u32, b: u32, infos: &mut InfoCache) -> bool {
+        infos.get(self, a).corners.len() == 4 && (a == b || infos.get(self, b).corners.len() == 4)
     }
 
     /// Split non-quad patches at their concave corners (an angle of three quarter turns, an
@@ -1525,15 +1542,14 @@ impl<'a> State<'a> {
         let mut done = 0;
         let mut failed: BTreeSet<(u32, VertexId)> = BTreeSet::new();
         // Each patch's measure, kept until a repair changes the labels or seams at its vertices.
-        let mut infos: Vec<Option<RegionInfo>> = Vec::new();
+        let mut infos = InfoCache::default();
         'outer: while done < max {
             let (label, seam) = (self.label.clone(), self.seam.clone());
-            infos.resize(self.faces.len(), None);
             for p in 0..self.faces.len() as u32 {
                 if self.faces[p as usize].is_empty() {
                     continue;
                 }
-                let info = infos[p as usize].get_or_insert_with(|| self.info_of(p)).clone();
+                let info = infos.get(self, p).clone();
                 if info.corners.len() == 4 {
                     continue;
                 }
@@ -1543,11 +1559,7 @@ impl<'a> State<'a> {
                     }
                     if repair(self, p, v, &info) {
                         done += 1;
-                        for q in self.touched_since(&label, &seam) {
-                            if let Some(slot) = infos.get_mut(q as usize) {
-                                *slot = None;
-                            }
-                        }
+                        infos.forget(&self.touched_since(&label, &seam));
                         continue 'outer;
                     }
                     failed.insert((p, v));

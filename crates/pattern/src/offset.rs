@@ -48,7 +48,7 @@ use i_overlay::float::single::SingleFloatOverlay;
 use i_overlay::mesh::float::outline::offset::OutlineOffset;
 use i_overlay::mesh::float::style::{LineJoin, OutlineStyle};
 
-use crate::geom::{P2, add, axpy, cross, dot, normalize, right_normal, scale, signed_area, sub};
+use crate::geom::{BBox, P2, add, axpy, cross, dot, normalize, right_normal, scale, signed_area, sub};
 
 /// Largest distance of a cut-line corner from its sew-line corner, in allowances.
 pub const MITER_LIMIT: f64 = 2.0;
@@ -228,21 +228,17 @@ fn lowest_first(mut poly: Vec<P2>) -> Vec<P2> {
 /// A loop wider than `limit` is no rounding artefact: the contour is returned with it, for the
 /// caller's validation to report.
 fn cut_small_loops(mut poly: Vec<P2>, limit: f64) -> Vec<P2> {
-    let width = |pts: &mut dyn Iterator<Item = P2>| {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in pts {
-            lo = [lo[0].min(p[0]), lo[1].min(p[1])];
-            hi = [hi[0].max(p[0]), hi[1].max(p[1])];
-        }
-        (hi[0] - lo[0]).max(hi[1] - lo[1])
+    let width = |pts: &[P2]| {
+        let b = BBox::of(pts);
+        b.width().max(b.height())
     };
     // Each pass removes at least one vertex.
     while poly.len() > 3 {
         let Some((i, j)) = crate::geom::find_self_intersection(&poly) else { break };
         let n = poly.len();
         // Vertices i+1..=j lie between the edges one way round, j+1..=i (wrapping) the other.
-        let inner = width(&mut (i + 1..=j).map(|k| poly[k]));
-        let outer = width(&mut (j + 1..n).chain(0..=i).map(|k| poly[k]));
+        let inner = width(&poly[i + 1..=j]);
+        let outer = width(&[&poly[j + 1..], &poly[..=i]].concat());
         let (a, b, c, d) = (poly[i], poly[(i + 1) % n], poly[j], poly[(j + 1) % n]);
         let den = cross(sub(b, a), sub(d, c));
         let crossing = if j == i + 1 || (i == 0 && j == n - 1) || den == 0.0 {
