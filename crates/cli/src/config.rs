@@ -563,7 +563,7 @@ impl Default for SolverSection {
     fn default() -> Self {
         Self {
             tolerance: 1e-8,
-            max_iterations: 200,
+            max_iterations: clothcast_sim::newton::DEFAULT_MAX_ITERATIONS,
             allow_unconverged: false,
             factor_precision: FactorPrecision::Auto,
             coarse_start: true,

@@ -89,12 +89,13 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     }
     if above_level(s) {
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
-        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; with 2000
-        // iterations allowed, those filled to half their height or more in 145-1465 (README).
+        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; with 3000
+        // iterations allowed (2026-12-06), torus, bunny, fertility and spot filled to half their
+        // height or more in 147-1166, filled to a fifth 1 of 4 (2433) (README).
         out += "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
                 determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a \
                 higher fill_level helps, or more iterations (molds filled to half their height or more have \
-                converged within 2000: [solver] max_iterations = 2000)";
+                converged within 1200: [solver] max_iterations = 2000)";
     }
     out
 }
@@ -111,7 +112,8 @@ fn above_level(s: &clothcast_sim::SimStats) -> bool {
 /// of growing stiffness it is solved in (`clothcast_sim::CONTINUATION_RATIO`): measured
 /// on 2026-12-04, spot 0.1 m tall (ratio 350 / 700 / 2100 for Y = 50 / 100 / 300 kN/m) took
 /// 52 / 79 / 148 iterations (76 / 127 / 408 directly), bunny 38 / 51 / 93; the default
-/// scenarios at 0.5 m (ratio 14) take 11–59 on eight meshes.
+/// scenarios at 0.5 m (ratio 14) take 11–59 on eight meshes. Such a solve that does not
+/// converge within the default iterations may still be settling: its message names more.
 const STIFF_RATIO: f64 = 1000.0;
 
 /// The other membrane model, where it may converge: for plain StVK, whose compressed fabric is
@@ -149,8 +151,8 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
         "; the fabric is very stiff for so small a mold (its stiffness over p H = {shown}: Y / (1 - ν²) for an \
          isotropic fabric, the stiffer yarn's for a woven one, p the largest pressure, H the mold's height): it barely \
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
-         stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): [solver] \
-         max_iterations = 1000 helps"
+         stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): more \
+         iterations may help ([solver] max_iterations = 3000)"
     )
 }
 
