@@ -274,8 +274,8 @@ fn a_fabric_very_stiff_for_its_mold_is_solved_by_stages_of_stiffness() {
 }
 
 /// A stage of the stiffness continuation before the last keeps at most `STAGE_MAX_ITERATIONS`:
-/// a partial fill's first stage that creeps (a fuzz case: the torus 0.185 m tall of 283 kN/m
-/// filled to 39%) no longer takes every iteration the whole solve is allowed.
+/// a partial fill's first stage that creeps (a fuzz case, here upright: the torus 0.185 m tall
+/// of 283 kN/m filled to 39%) no longer takes every iteration the whole solve is allowed.
 #[test]
 fn a_stage_of_the_stiffness_continuation_that_creeps_leaves_iterations_to_the_next() {
     let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/torus.obj"));
