@@ -45,8 +45,8 @@ use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, FactorScalar, Solve
 use serde::Serialize;
 use std::time::Instant;
 
-/// Newton iterations allowed by default (all load steps together). Most full fills converge
-/// in 11–60, but some take longer: a fuzz of 60 random scenarios (2026-12-06) had two full fills
+/// Newton iterations allowed by default (all load steps together). The README's default
+/// scenarios converge in 11–62, but some full fills take longer: a fuzz of 60 random scenarios (2026-12-06) had two full fills
 /// converge in 214 and 244, and partial fills filled to half their height or more converged
 /// in 147–1166 (torus, bunny, fertility, spot at 0.25 and 0.35 m of 0.5 m; 7 of the 8 within
 /// 1000). A solve that cannot converge reports after this many.

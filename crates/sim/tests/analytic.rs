@@ -249,10 +249,7 @@ fn a_fabric_very_stiff_for_its_mold_is_solved_by_stages_of_stiffness() {
     assert!((st[0] - 100.0 / 2100.0).abs() < 1e-12 && st[3] == 1.0, "{st:?}");
     assert_eq!(stiffness_stages(350.0).len(), 2);
 
-    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/bunny.obj"));
-    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
-    let scale = 0.1 / mesh.bbox().extent().z;
-    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mesh = common::closed_test_mesh("bunny.obj", 0.1);
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(3.0e5, NU);
     let r = simulate(&mesh, &mat, &Scenario::default(), &mut |_| {}).unwrap();
     assert!(r.stats.converged, "{:?} after {}", r.stats.termination, r.stats.newton_iterations);
@@ -278,10 +275,7 @@ fn a_fabric_very_stiff_for_its_mold_is_solved_by_stages_of_stiffness() {
 /// of 283 kN/m filled to 39%) no longer takes every iteration the whole solve is allowed.
 #[test]
 fn a_stage_of_the_stiffness_continuation_that_creeps_leaves_iterations_to_the_next() {
-    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/torus.obj"));
-    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
-    let scale = 0.1852 / mesh.bbox().extent().z;
-    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mesh = common::closed_test_mesh("torus.obj", 0.1852);
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(283_424.0, 0.064);
     let max = STAGE_MAX_ITERATIONS + 100;
     let sc = Scenario {
@@ -569,10 +563,7 @@ fn laplacian_and_diagonal_damping_reach_the_same_equilibrium() {
 #[test]
 fn indefinite_steps_return_to_single_precision() {
     use clothcast_sim::newton::{FactorPrecision, SINGLE_TRUST_AFTER};
-    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/cylinder.obj"));
-    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
-    let scale = 0.5 / mesh.bbox().extent().z;
-    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mesh = common::closed_test_mesh("cylinder.obj", 0.5);
     let run = |factor_precision| solve_with(&mesh, NewtonOptions { factor_precision, ..Default::default() });
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     let st = &s.stats.solver;

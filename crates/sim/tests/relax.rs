@@ -1,12 +1,10 @@
 //! The relaxed line search (crate::relax): the same equilibria as plain backtracking, in
 //! fewer Newton iterations on a real mesh, with the energy never rising.
 
-use clothcast_mesh::io::read_mesh_file;
 use clothcast_mesh::{Mesh, shapes};
 use clothcast_sim::material::WrinklingStVenantKirchhoff;
 use clothcast_sim::newton::NewtonOptions;
 use clothcast_sim::*;
-use std::path::PathBuf;
 
 mod common;
 
@@ -25,10 +23,7 @@ fn solve(mesh: &Mesh, sc: &Scenario, relax_sweeps: usize) -> SimResult {
 /// at 0.7 m 27 → 20), and ends at an equilibrium of the same energy and shape.
 #[test]
 fn relaxed_line_search_on_the_bunny() {
-    let path = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/bunny.obj"));
-    let mut mesh = Mesh::try_from_soup(&read_mesh_file(&path).unwrap()).unwrap();
-    let scale = 0.5 / mesh.bbox().extent().z;
-    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mesh = common::closed_test_mesh("bunny.obj", 0.5);
     let sc = Scenario::default();
     let (plain, relaxed) = (solve(&mesh, &sc, 0), solve(&mesh, &sc, 10));
     let (p, r) = (&plain.stats.solver, &relaxed.stats.solver);

@@ -160,10 +160,7 @@ fn sewn_system_matches_finite_differences() {
 #[test]
 fn indefinite_woven_steps_trust_single_precision_after_confirmations() {
     use clothcast_sim::newton::{FactorPrecision, NewtonOptions, SINGLE_TRUST_AFTER};
-    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/meshes/closed/torus.obj"));
-    let mut mesh = Mesh::try_from_soup(&clothcast_mesh::io::read_mesh_file(&path).unwrap()).unwrap();
-    let scale = 0.5 / mesh.bbox().extent().z;
-    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    let mesh = common::closed_test_mesh("torus.obj", 0.5);
     let fabric = common::Tweaked {
         inner: WovenFabric::new(6.0e4, 2.0e4, 1.0e3).unwrap(),
         reference_stiffness: None,

@@ -123,3 +123,13 @@ impl<M: clothcast_sim::material::Material> clothcast_sim::material::Material for
         self.exact_geometric_below.unwrap_or_else(|| self.inner.exact_geometric_below())
     }
 }
+
+/// A closed mesh of the test data (`data/meshes/closed/NAME`), scaled to `height` metres along z.
+pub fn closed_test_mesh(name: &str, height: f64) -> clothcast_mesh::Mesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/closed").join(name);
+    let soup = clothcast_mesh::io::read_mesh_file(&path).unwrap();
+    let mut mesh = clothcast_mesh::Mesh::try_from_soup(&soup).unwrap();
+    let scale = height / mesh.bbox().extent().z;
+    mesh.set_positions(mesh.positions().map(|x| x * scale));
+    mesh
+}
