@@ -84,13 +84,6 @@ fn same_topology(m: &Mesh, c: &Mesh) -> bool {
 /// from it and converges to its own tolerance.
 pub const COARSE_TOLERANCE: f64 = 1e-6;
 
-/// A coarse level gets at most this many Newton iterations (fewer if the whole solve is allowed
-/// fewer): a level that takes longer is no quick start, and the fine solve then starts from
-/// its target. Kitten's levels at 0.5 m take 27 and 29 (under plain StVK 184 and 110). This
-/// was the whole solve's default limit until 2026-12-06, when that was raised to
-/// [`crate::newton::DEFAULT_MAX_ITERATIONS`] for the slow partial fills.
-pub const COARSE_MAX_ITERATIONS: usize = 200;
-
 /// What the coarse start did (the `simulation.coarse_start` section of summary.json).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct CoarseStats {
@@ -235,11 +228,7 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let cons = constraints.restrict(&coarse.parent);
     let coarse_start_x: Vec<Vec3> = coarse.parent.iter().map(|p| start[p.idx()]).collect();
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
-    let opts = NewtonOptions {
-        tolerance: opts.tolerance.max(COARSE_TOLERANCE),
-        max_iterations: opts.max_iterations.min(COARSE_MAX_ITERATIONS),
-        ..opts.clone()
-    };
+    let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.for_start() };
     // The next level of the cascade, if it is still large enough; if it gives no start, or the
     // solve from its start fails, this level is solved from its own start (its target, lifted
     // clear of the supports as the fine one's).

@@ -45,6 +45,6 @@ pub mod system;
 
 pub use material::{Material, StVenantKirchhoff, WovenFabric};
 pub use scenario::{
-    BehindWhy, CONTINUATION_RATIO, CONTINUATION_START, FillLevel, ResidualSite, STAGE_MAX_ITERATIONS, Scenario,
-    SimError, SimResult, SimStats, StiffnessStage, Suspension, simulate, simulate_sewn, stiffness_stages,
+    BehindWhy, CONTINUATION_RATIO, CONTINUATION_START, FillLevel, ResidualSite, Scenario, SimError, SimResult,
+    SimStats, StiffnessStage, Suspension, simulate, simulate_sewn, stiffness_stages,
 };

@@ -334,16 +334,6 @@ pub const CONTINUATION_RATIO: f64 = 300.0;
 /// The ratio of the continuation's first stage ([`CONTINUATION_RATIO`]).
 pub const CONTINUATION_START: f64 = 100.0;
 
-/// A stage of the continuation before the last gets at most this many Newton iterations (fewer
-/// if fewer are left): it only gives the next stage its start, and one that has not converged
-/// by then (a partial fill's slack fabric creeping) leaves the rest to the stages after it.
-/// Measured on 2026-12-06, spot, bunny and fertility 0.1 m tall of 300 kN/m: stages of 10–34
-/// iterations. When the whole solve's default limit was raised from 200 to 1000 (2026-12-06),
-/// a first stage that crept took 999 of them and left the last one a single iteration (a torus
-/// 0.19 m tall of 283 kN/m filled to 39%: relative residual 0.81; with this limit 4.8·10⁻⁴,
-/// still not converged, as most molds filled below half their height).
-pub const STAGE_MAX_ITERATIONS: usize = 200;
-
 /// The stiffness shares of the continuation's stages for a fabric `ratio` times as stiff as its
 /// load (empty at or below [`CONTINUATION_RATIO`]): from [`CONTINUATION_START`] / ratio, ×3 a
 /// stage, ending at 1 (a stage above 0.7 is skipped for the last).
@@ -766,8 +756,8 @@ fn simulate_with_rest(
         if first {
             coarse = coarse_for(&soft, &start);
         }
-        let mut opts = left(iterations + 1);
-        opts.max_iterations = opts.max_iterations.min(STAGE_MAX_ITERATIONS);
+        // (It only starts the next stage.)
+        let opts = left(iterations + 1).for_start();
         let res = solve_from(&mut sys, coarse.as_mut().filter(|_| first), start, &opts, progress)?;
         let converged = res.termination == Termination::Converged;
         tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
