@@ -540,8 +540,9 @@ fn exactly_three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::
 pub struct SolverSection {
     /// Converged when the residual force is below this fraction of the load.
     pub tolerance: f64,
-    /// Newton iterations allowed (over all load steps).
-    pub max_iterations: usize,
+    /// Newton iterations allowed (over all load steps): a number, or "auto" (the default) for
+    /// a limit that scales with the mesh ([`MaxIterations`]).
+    pub max_iterations: MaxIterations,
     /// Continue after a non-converged solve (marked in the summary).
     pub allow_unconverged: bool,
     /// Precision of the sparse factorization of every Newton step.
@@ -563,7 +564,7 @@ impl Default for SolverSection {
     fn default() -> Self {
         Self {
             tolerance: 1e-8,
-            max_iterations: clothcast_sim::newton::DEFAULT_MAX_ITERATIONS,
+            max_iterations: MaxIterations::Auto,
             allow_unconverged: false,
             factor_precision: FactorPrecision::Auto,
             coarse_start: true,
@@ -583,6 +584,60 @@ pub enum DampingMatrix {
     Laplacian,
     /// The rest Hessian's diagonal (the former default).
     Diagonal,
+}
+
+/// `[solver] max_iterations`: a number of Newton iterations, or `"auto"`, the default: as many
+/// as [`clothcast_sim::newton::AUTO_ITERATION_BUDGET`] over the free dofs, at least
+/// [`clothcast_sim::newton::DEFAULT_MAX_ITERATIONS`] (1000, large meshes) and at most
+/// [`clothcast_sim::newton::AUTO_MAX_ITERATIONS_CAP`] (20000), so that a solve that does not
+/// converge on a small mesh runs as long as one on a large mesh would before it says so (about
+/// a minute on the development machine), where molds filled low converge in thousands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "MaxIterationsValue", into = "MaxIterationsValue")]
+pub enum MaxIterations {
+    /// Scaled with the mesh.
+    Auto,
+    /// This many.
+    Fixed(usize),
+}
+
+impl MaxIterations {
+    /// The limit for a mesh of `vertices` vertices (three dofs each; the clamped ones' few
+    /// count too: a budget, not an exact cost).
+    pub fn resolve(self, vertices: usize) -> usize {
+        match self {
+            Self::Auto => clothcast_sim::newton::auto_max_iterations(3 * vertices),
+            Self::Fixed(n) => n,
+        }
+    }
+}
+
+/// How `max_iterations` is written: a number or a word.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(untagged)]
+enum MaxIterationsValue {
+    Number(usize),
+    Word(String),
+}
+
+impl TryFrom<MaxIterationsValue> for MaxIterations {
+    type Error = String;
+    fn try_from(v: MaxIterationsValue) -> Result<Self, String> {
+        match v {
+            MaxIterationsValue::Number(n) => Ok(Self::Fixed(n)),
+            MaxIterationsValue::Word(w) if w == "auto" => Ok(Self::Auto),
+            MaxIterationsValue::Word(w) => Err(format!("expected a number of iterations or \"auto\", found \"{w}\"")),
+        }
+    }
+}
+
+impl From<MaxIterations> for MaxIterationsValue {
+    fn from(m: MaxIterations) -> Self {
+        match m {
+            MaxIterations::Auto => Self::Word("auto".into()),
+            MaxIterations::Fixed(n) => Self::Number(n),
+        }
+    }
 }
 
 /// `[solver] factor_precision`.
@@ -773,7 +828,7 @@ impl Config {
                  1.0e-12 at 0.5 m, 1.8e-12 at 0.3 m)",
             ));
         }
-        if self.solver.max_iterations == 0 {
+        if self.solver.max_iterations == MaxIterations::Fixed(0) {
             return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
         }
         if self.solver.coarse_start_ratio < 2 {
@@ -972,6 +1027,30 @@ mod tests {
         let e = Config::from_toml("[infill]\ndensity = 0\nhead_pressure = -1000\n", "h.toml").unwrap_err().to_string();
         assert!(e.contains("infill.head_pressure") && e.contains("suction"), "{e}");
         assert!(Config::from_toml("[infill]\nhead_pressure = -1000\n", "h").is_ok());
+    }
+
+    #[test]
+    fn max_iterations_is_a_number_or_auto() {
+        assert_eq!(Config::default().solver.max_iterations, MaxIterations::Auto);
+        let c = Config::from_toml("[solver]\nmax_iterations = 250\n", "c").unwrap();
+        assert_eq!(c.solver.max_iterations, MaxIterations::Fixed(250));
+        assert_eq!(c.solver.max_iterations.resolve(1_000_000), 250);
+        let c = Config::from_toml("[solver]\nmax_iterations = \"auto\"\n", "c").unwrap();
+        assert_eq!(c.solver.max_iterations, MaxIterations::Auto);
+        // 60 million over 3 dofs per vertex, between 1000 and 20000.
+        assert_eq!(c.solver.max_iterations.resolve(2304), 8680);
+        assert_eq!(c.solver.max_iterations.resolve(51_000), 1000);
+        assert_eq!(c.solver.max_iterations.resolve(4), 20_000);
+        for bad in ["\"many\"", "0", "-5", "2.5"] {
+            let e =
+                Config::from_toml(&format!("[solver]\nmax_iterations = {bad}\n"), "c.toml").unwrap_err().to_string();
+            assert!(e.contains("max_iterations") && (e.contains("line 2") || e.contains("c.toml:2")), "{bad}: {e}");
+        }
+        // Written back as it was read (the summary's scenario).
+        let echo = toml::to_string(&Config::default().solver).unwrap();
+        assert!(echo.contains("max_iterations = \"auto\""), "{echo}");
+        let echo = toml::to_string(&Config::from_toml("[solver]\nmax_iterations = 77\n", "c").unwrap().solver).unwrap();
+        assert!(echo.contains("max_iterations = 77"), "{echo}");
     }
 
     #[test]

@@ -56,6 +56,11 @@ fn simulate_writes_deformed_mesh_and_summary() {
     let pmax = sim["pressure_max_pa"].as_f64().unwrap();
     assert!((pmax - 1460.0 * 9.81 * 0.5).abs() < 0.05 * pmax, "{pmax}");
     assert!(s["stages"]["simulation"]["seconds"].as_f64().unwrap() > 0.0);
+    // The default iteration limit scales with the mesh: 60 million over its 3 dofs per vertex,
+    // between 1000 and 20000.
+    assert_eq!(s["scenario"]["solver"]["max_iterations"], "auto");
+    let vertices = s["input"]["vertices"].as_u64().unwrap();
+    assert_eq!(sim["max_iterations"].as_u64().unwrap(), (60_000_000 / (3 * vertices)).clamp(1000, 20_000));
 
     // deformed.ply: same vertex and face order as the target, properties present.
     let bytes = std::fs::read(out.join("deformed.ply")).unwrap();
@@ -90,6 +95,8 @@ fn non_convergence_is_an_error_unless_allowed() {
     let s = summary(&out);
     assert_eq!(s["simulation"]["converged"], false);
     assert_eq!(s["simulation"]["termination"], "max_iterations");
+    assert_eq!(s["simulation"]["max_iterations"], 2);
+    assert_eq!(s["scenario"]["solver"]["max_iterations"], 2);
 }
 
 #[test]

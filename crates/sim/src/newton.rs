@@ -45,12 +45,34 @@ use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, FactorScalar, Solve
 use serde::Serialize;
 use std::time::Instant;
 
-/// Newton iterations allowed by default (all load steps together). The README's default
-/// scenarios converge in 11–62, but some full fills take longer: a fuzz of 60 random scenarios (2026-12-06) had two full fills
-/// converge in 214 and 244, and partial fills filled to half their height or more converged
-/// in 147–1166 (torus, bunny, fertility, spot at 0.25 and 0.35 m of 0.5 m; 7 of the 8 within
-/// 1000). A solve that cannot converge reports after this many.
+/// Newton iterations allowed by default (all load steps together) on large meshes, and at
+/// least on any ([`auto_max_iterations`]). The README's default scenarios converge in 11–62,
+/// but some full fills take longer: a fuzz of 60 random scenarios (2026-12-06) had two full
+/// fills converge in 214 and 244, and partial fills filled to half their height or more
+/// converged in 147–1166 (torus, bunny, fertility, spot at 0.25 and 0.35 m of 0.5 m; 7 of the
+/// 8 within 1000).
 pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
+
+/// The work the default iteration limit allows a solve, in Newton iterations times free
+/// degrees of freedom ([`auto_max_iterations`]): a Newton iteration costs about 1.0–1.3 µs per
+/// dof on the 2-core development machine below 35k dofs (torus, bunny, spot: 7 / 12 / 42 ms),
+/// kitten's 2.1 µs, so a solve that does not converge reports after about 80 s on small
+/// meshes, and after the floor of [`DEFAULT_MAX_ITERATIONS`] on large ones (kitten: about
+/// 5 min). Molds filled to a fifth of their height converge, but in thousands of iterations
+/// (measured on 2026-12-06 at 0.5 m filled to 0.1 m: torus 5603, 6.9k dofs; bunny 4186, 9.1k;
+/// fertility 2433, 12.7k; spot 7814, 32.4k, more than its 1852).
+pub const AUTO_ITERATION_BUDGET: usize = 60_000_000;
+
+/// The most iterations the default limit allows (tiny meshes).
+pub const AUTO_MAX_ITERATIONS_CAP: usize = 20_000;
+
+/// The default iteration limit of a solve with `dofs` free degrees of freedom:
+/// [`AUTO_ITERATION_BUDGET`] / dofs, at least [`DEFAULT_MAX_ITERATIONS`], at most
+/// [`AUTO_MAX_ITERATIONS_CAP`]. A solve that converges stops as soon as it does: the limit only
+/// decides how long one that does not takes to say so.
+pub fn auto_max_iterations(dofs: usize) -> usize {
+    (AUTO_ITERATION_BUDGET / dofs.max(1)).clamp(DEFAULT_MAX_ITERATIONS, AUTO_MAX_ITERATIONS_CAP)
+}
 
 /// A solve whose equilibrium only starts another (a coarse-start level, a stiffness stage
 /// before the last) gets at most this many Newton iterations, fewer if fewer are left

@@ -250,6 +250,9 @@ pub struct SimStats {
     pub termination: Termination,
     /// Newton iterations.
     pub newton_iterations: usize,
+    /// The iteration limit the solve had (`[solver] max_iterations`, or its default for the
+    /// mesh's size: [`crate::newton::auto_max_iterations`]).
+    pub max_iterations: usize,
     /// Final ‖∇Π‖/‖f_ext‖.
     pub residual_rel: f64,
     /// Where the unbalanced force is largest at the end of the solve (`None` when it is zero
@@ -872,6 +875,7 @@ fn simulate_with_rest(
         converged: res.termination == Termination::Converged,
         termination: res.termination,
         newton_iterations: res.stats.iterations,
+        max_iterations: sc.newton.max_iterations,
         residual_rel: res.stats.residual_rel,
         largest_residual,
         residual_rel_below_level,

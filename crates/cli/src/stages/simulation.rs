@@ -54,7 +54,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
         gravity: clothcast_sim::scenario::GRAVITY,
         newton: NewtonOptions {
             tolerance: cfg.solver.tolerance,
-            max_iterations: cfg.solver.max_iterations,
+            max_iterations: cfg.solver.max_iterations.resolve(input.mesh.n_vertices()),
             factor_precision: match cfg.solver.factor_precision {
                 config::FactorPrecision::Auto => FactorPrecision::Auto,
                 config::FactorPrecision::Double => FactorPrecision::Double,
@@ -89,13 +89,17 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
     }
     if above_level(s) {
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
-        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; with 3000
-        // iterations allowed (2026-12-06), torus, bunny, fertility and spot filled to half their
-        // height or more in 147-1166, filled to a fifth 1 of 4 (2433) (README).
-        out += "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
-                determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a \
-                higher fill_level helps, or more iterations (molds filled to half their height or more have \
-                converged within 1200: [solver] max_iterations = 2000)";
+        // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; torus,
+        // bunny, fertility and spot (2026-12-06) filled to half their height or more in
+        // 147-1166, filled to a fifth in 2433-7814 (README).
+        out += &format!(
+            "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
+             determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
+             fill_level helps, or more iterations (molds filled to half their height or more have converged within \
+             1200, filled to a fifth within 2400-7800; this solve was allowed {}: [solver] max_iterations = {})",
+            s.max_iterations,
+            more_iterations(s.max_iterations, 2000)
+        );
     }
     out
 }
@@ -152,8 +156,15 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
          isotropic fabric, the stiffer yarn's for a woven one, p the largest pressure, H the mold's height): it barely \
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): more \
-         iterations may help ([solver] max_iterations = 3000)"
+         iterations may help ([solver] max_iterations = {})",
+        more_iterations(s.max_iterations, 3000)
     )
+}
+
+/// An iteration limit to suggest after a solve allowed `limit`: twice as many, rounded up to
+/// a thousand, and at least `floor`.
+fn more_iterations(limit: usize, floor: usize) -> usize {
+    (2 * limit).div_ceil(1000).saturating_mul(1000).max(floor)
 }
 
 /// A principal stretch beyond this (50%: three times the largest stretch, 7/6, at which the

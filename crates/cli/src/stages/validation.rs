@@ -366,6 +366,8 @@ pub fn run(
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     // Its steps solved less exactly than stage 1's (see the constant).
     sc.newton.single_step_tolerance = clothcast_sim::newton::SEWN_STEP_TOLERANCE;
+    // The limit for the sewn mold's own size (its seams add vertices).
+    sc.newton.max_iterations = cfg.solver.max_iterations.resolve(seg.mesh.n_vertices());
     if cfg.suspension.mode == SuspensionMode::Vertices {
         // The clamped target vertices, on the segmented mesh (every target vertex is one of
         // its), and the vertices the segmentation inserted on an edge between two of them (a
