@@ -587,13 +587,14 @@ pub enum DampingMatrix {
 }
 
 /// `[solver] max_iterations`: a number of Newton iterations, or `"auto"`, the default: as many
-/// as [`clothcast_sim::newton::AUTO_ITERATION_BUDGET`] over the free dofs, at least
-/// [`clothcast_sim::newton::DEFAULT_MAX_ITERATIONS`] (1000, large meshes) and at most
-/// [`clothcast_sim::newton::AUTO_MAX_ITERATIONS_CAP`] (20000), so that a solve that does not
-/// converge on a small mesh runs as long as one on a large mesh would before it says so (about
-/// a minute on the development machine), where molds filled low converge in thousands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(try_from = "MaxIterationsValue", into = "MaxIterationsValue")]
+/// as [`clothcast_sim::newton::AUTO_ITERATION_BUDGET`] over three dofs per vertex, at least
+/// [`clothcast_sim::newton::DEFAULT_MAX_ITERATIONS`] (1000, meshes of 20k vertices and more)
+/// and at most [`clothcast_sim::newton::AUTO_MAX_ITERATIONS_CAP`] (20000): a solve that does
+/// not converge on a small mesh runs about a minute on the development machine before it says
+/// so (it stopped after 1000 iterations, seconds, before), where molds filled low converge in
+/// thousands; on large meshes 1000 (kitten: about 5 minutes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(into = "MaxIterationsValue")]
 pub enum MaxIterations {
     /// Scaled with the mesh.
     Auto,
@@ -612,29 +613,49 @@ impl MaxIterations {
     }
 }
 
-/// How `max_iterations` is written: a number or a word.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+/// How `max_iterations` is written back (the summary's `scenario`): a number or "auto".
+#[derive(Clone, Debug, Serialize)]
 #[serde(untagged)]
 enum MaxIterationsValue {
     Number(usize),
-    Word(String),
+    Word(&'static str),
 }
 
-impl TryFrom<MaxIterationsValue> for MaxIterations {
-    type Error = String;
-    fn try_from(v: MaxIterationsValue) -> Result<Self, String> {
-        match v {
-            MaxIterationsValue::Number(n) => Ok(Self::Fixed(n)),
-            MaxIterationsValue::Word(w) if w == "auto" => Ok(Self::Auto),
-            MaxIterationsValue::Word(w) => Err(format!("expected a number of iterations or \"auto\", found \"{w}\"")),
+/// What [`MaxIterations`] accepts, for its parse errors.
+const MAX_ITERATIONS_EXPECTED: &str = "a whole number of iterations (at least 1) or \"auto\"";
+
+impl<'de> Deserialize<'de> for MaxIterations {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl serde::de::Visitor<'_> for Visit {
+            type Value = MaxIterations;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(MAX_ITERATIONS_EXPECTED)
+            }
+            fn visit_u64<E: serde::de::Error>(self, n: u64) -> Result<MaxIterations, E> {
+                usize::try_from(n).map(MaxIterations::Fixed).map_err(|_| E::custom(format!("{n} is too large")))
+            }
+            fn visit_i64<E: serde::de::Error>(self, n: i64) -> Result<MaxIterations, E> {
+                match u64::try_from(n) {
+                    Ok(n) => self.visit_u64(n),
+                    Err(_) => Err(E::custom(format!("expected {MAX_ITERATIONS_EXPECTED}, found {n}"))),
+                }
+            }
+            fn visit_str<E: serde::de::Error>(self, w: &str) -> Result<MaxIterations, E> {
+                match w {
+                    "auto" => Ok(MaxIterations::Auto),
+                    _ => Err(E::custom(format!("expected {MAX_ITERATIONS_EXPECTED}, found \"{w}\""))),
+                }
+            }
         }
+        d.deserialize_any(Visit)
     }
 }
 
 impl From<MaxIterations> for MaxIterationsValue {
     fn from(m: MaxIterations) -> Self {
         match m {
-            MaxIterations::Auto => Self::Word("auto".into()),
+            MaxIterations::Auto => Self::Word("auto"),
             MaxIterations::Fixed(n) => Self::Number(n),
         }
     }
@@ -1041,10 +1062,19 @@ mod tests {
         assert_eq!(c.solver.max_iterations.resolve(2304), 8680);
         assert_eq!(c.solver.max_iterations.resolve(51_000), 1000);
         assert_eq!(c.solver.max_iterations.resolve(4), 20_000);
-        for bad in ["\"many\"", "0", "-5", "2.5"] {
+        // Refused with what is expected (the key and line come with every config error).
+        for (bad, says) in [
+            ("\"many\"", "or \"auto\", found \"many\""),
+            ("\"AUTO\"", "found \"AUTO\""),
+            ("-5", "found -5"),
+            ("2.5", "(at least 1) or \"auto\""),
+            ("true", "(at least 1) or \"auto\""),
+            ("[3]", "(at least 1) or \"auto\""),
+            ("0", "must be at least 1"),
+        ] {
             let e =
                 Config::from_toml(&format!("[solver]\nmax_iterations = {bad}\n"), "c.toml").unwrap_err().to_string();
-            assert!(e.contains("max_iterations") && (e.contains("line 2") || e.contains("c.toml:2")), "{bad}: {e}");
+            assert!(e.contains(says) && (e.contains("line 2") || e.contains("c.toml:2")), "{bad}: {e}");
         }
         // Written back as it was read (the summary's scenario).
         let echo = toml::to_string(&Config::default().solver).unwrap();

@@ -53,14 +53,15 @@ use std::time::Instant;
 /// 8 within 1000).
 pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
 
-/// The work the default iteration limit allows a solve, in Newton iterations times free
-/// degrees of freedom ([`auto_max_iterations`]): a Newton iteration costs about 1.0–1.3 µs per
-/// dof on the 2-core development machine below 35k dofs (torus, bunny, spot: 7 / 12 / 42 ms),
-/// kitten's 2.1 µs, so a solve that does not converge reports after about 80 s on small
-/// meshes, and after the floor of [`DEFAULT_MAX_ITERATIONS`] on large ones (kitten: about
-/// 5 min). Molds filled to a fifth of their height converge, but in thousands of iterations
-/// (measured on 2026-12-06 at 0.5 m filled to 0.1 m: torus 5603, 6.9k dofs; bunny 4186, 9.1k;
-/// fertility 2433, 12.7k; spot 7814, 32.4k, more than its 1852).
+/// The work the default iteration limit allows a solve, in Newton iterations times degrees of
+/// freedom ([`auto_max_iterations`]; the CLI counts three per vertex, clamped ones included): a
+/// Newton iteration costs about 1.0–1.3 µs per dof on the 2-core development machine below 35k
+/// dofs (torus, bunny, spot: 7 / 12 / 42 ms), kitten's 2.1 µs, so a solve that does not
+/// converge reports after about a minute on small meshes, and after the floor of
+/// [`DEFAULT_MAX_ITERATIONS`] on meshes of 20k vertices and more (kitten: about 5 min). Molds
+/// filled to a fifth of their height converge, but in thousands of iterations (measured on
+/// 2026-12-06 at 0.5 m filled to 0.1 m: torus 5603, 2304 vertices; bunny 4186, 3.3k;
+/// fertility 2433, 4.5k; spot 7814, 11.5k vertices, more than its 1734).
 pub const AUTO_ITERATION_BUDGET: usize = 60_000_000;
 
 /// The most iterations the default limit allows (tiny meshes).

@@ -98,7 +98,7 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
              fill_level helps, or more iterations (molds filled to half their height or more have converged within \
              1200, filled to a fifth within 2400-7800; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
-            more_iterations(s.max_iterations, 2000)
+            more_iterations(s.max_iterations)
         );
     }
     out
@@ -157,14 +157,24 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): more \
          iterations may help ([solver] max_iterations = {})",
-        more_iterations(s.max_iterations, 3000)
+        more_iterations(s.max_iterations)
     )
 }
 
 /// An iteration limit to suggest after a solve allowed `limit`: twice as many, rounded up to
-/// a thousand, and at least `floor`.
-fn more_iterations(limit: usize, floor: usize) -> usize {
-    (2 * limit).div_ceil(1000).saturating_mul(1000).max(floor)
+/// a thousand, and at least 3000 (the floor of 1000 doubled, and the stiff small molds' need).
+fn more_iterations(limit: usize) -> usize {
+    limit.saturating_mul(2).div_ceil(1000).saturating_mul(1000).max(3000)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn more_iterations_doubles_the_limit_in_thousands() {
+        for (limit, more) in [(3, 3000), (1000, 3000), (1734, 4000), (8680, 18000), (20_000, 40_000)] {
+            assert_eq!(super::more_iterations(limit), more, "{limit}");
+        }
+    }
 }
 
 /// A principal stretch beyond this (50%: three times the largest stretch, 7/6, at which the

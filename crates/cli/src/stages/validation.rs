@@ -69,6 +69,9 @@ pub struct ValidationSummary {
     pub converged: bool,
     /// Newton iterations.
     pub newton_iterations: usize,
+    /// The iteration limit the check's solve had (`[solver] max_iterations`, or its default
+    /// for the sewn mold's size).
+    pub max_iterations: usize,
     /// Relative residual force at the end.
     pub residual_rel: f64,
     /// The fabric.
@@ -363,6 +366,7 @@ pub fn run(
     let cp = ClosestPoint::new(&input.mesh);
     // Where each segmented vertex lies on the target (they all lie on it).
     let on_target: Vec<ClosestHit> = seg.mesh.positions().iter().map(|p| cp.query(p)).collect();
+    // (Its iteration limit resolved for the target, then below for the sewn mold.)
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     // Its steps solved less exactly than stage 1's (see the constant).
     sc.newton.single_step_tolerance = clothcast_sim::newton::SEWN_STEP_TOLERANCE;
@@ -433,9 +437,10 @@ pub fn run(
     let s = &result.stats;
     if !s.converged {
         let why = format!(
-            "the check (the sewn mold, filled) did not converge ({:?} after {} Newton iterations, relative residual \
-             {:.2e}): its figures in summary.json (validation) are of the last iterate; the patterns stand",
-            s.termination, s.newton_iterations, s.residual_rel
+            "the check (the sewn mold, filled) did not converge ({:?} after {} Newton iterations of {} allowed, \
+             relative residual {:.2e}): its figures in summary.json (validation) are of the last iterate; the patterns \
+             stand",
+            s.termination, s.newton_iterations, s.max_iterations, s.residual_rel
         );
         tracing::warn!("{why}");
     }
@@ -498,6 +503,7 @@ pub fn run(
     let summary = ValidationSummary {
         converged: s.converged,
         newton_iterations: s.newton_iterations,
+        max_iterations: s.max_iterations,
         residual_rel: s.residual_rel,
         fabric: FabricSummary {
             source: source.clone(),
