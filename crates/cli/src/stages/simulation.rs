@@ -167,16 +167,6 @@ fn more_iterations(limit: usize) -> usize {
     limit.saturating_mul(2).div_ceil(1000).saturating_mul(1000).max(3000)
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn more_iterations_doubles_the_limit_in_thousands() {
-        for (limit, more) in [(3, 3000), (1000, 3000), (1734, 4000), (8680, 18000), (20_000, 40_000)] {
-            assert_eq!(super::more_iterations(limit), more, "{limit}");
-        }
-    }
-}
-
 /// A principal stretch beyond this (50%: three times the largest stretch, 7/6, at which the
 /// WOR11 woven fabrics were measured) is warned about: the mold would tear, or the fabric is far
 /// too soft or the load too heavy for it.
@@ -339,4 +329,14 @@ fn smallest_angle_deg(input: &Input) -> f64 {
             })
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn more_iterations_doubles_the_limit_in_thousands() {
+        for (limit, more) in [(3, 3000), (1000, 3000), (1734, 4000), (8680, 18000), (20_000, 40_000)] {
+            assert_eq!(super::more_iterations(limit), more, "{limit}");
+        }
+    }
 }
