@@ -137,8 +137,15 @@ fn a_solve_that_does_not_converge_says_where_its_residual_is() {
     assert_mentions(&msg, "above the fill level");
     assert_mentions(&msg, "below the level the relative residual");
     assert_mentions(&msg, "head_pressure");
+    assert_mentions(&msg, "self_weight = true");
     assert_mentions(&msg, "max_iterations = 3000");
     assert_mentions(&msg, "model = \"stvk\"");
+    // With the fabric's weight already on, the message does not suggest it.
+    let weighed = "[infill]\nfill_level = 0.1\n[material]\nself_weight = true\n[solver]\nmax_iterations = 15\n";
+    let msg = run_configured("simulate", &out, weighed, &[], 1);
+    assert_mentions(&msg, "above the fill level");
+    assert_mentions(&msg, "head_pressure");
+    assert!(!msg.contains("self_weight"), "{msg}");
     run_configured("simulate", &out, toml, &["--allow-unconverged"], 0);
     let sim = &summary(&out)["simulation"];
     let site = &sim["largest_residual"];

@@ -76,7 +76,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
 
 /// Where a solve that did not converge left its largest unbalanced force, and what that
 /// usually means, for its message ("" when there is nothing to say).
-fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
+fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) -> String {
     let Some(site) = &s.largest_residual else { return String::new() };
     // The input file's vertex, as in the other messages (summary.json keeps deformed.ply's).
     let vertex = input.input_vertex(VertexId::new(site.vertex)).idx();
@@ -91,12 +91,19 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input) -> String {
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
         // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; torus,
         // bunny, fertility and spot (2026-12-06) filled to half their height or more in
-        // 147-1166, filled to a fifth in 2433-7814 (README).
+        // 147-1166, filled to a fifth in 2433-7814, and with the fabric's weight in 923-2588
+        // (README).
+        let weight = if self_weight {
+            ""
+        } else {
+            "; so does the fabric's weight, which holds that fabric ([material] self_weight = true: molds filled to a \
+             fifth of their height converged in 923-2588 iterations with it, 2433-7814 without)"
+        };
         out += &format!(
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
-             fill_level helps, or more iterations (molds filled to half their height or more have converged within \
-             1200, filled to a fifth within 2400-7800; this solve was allowed {}: [solver] max_iterations = {})",
+             fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
+             within 1200, filled to a fifth within 2400-7800; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
             more_iterations(s.max_iterations)
         );
@@ -234,7 +241,7 @@ pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult
             if runaway {
                 String::new()
             } else {
-                residual_site(s, input) + &stiff_hint(s) + model_hint(s, cfg.material.model)
+                residual_site(s, input, cfg.material.self_weight) + &stiff_hint(s) + model_hint(s, cfg.material.model)
             }
         );
         if runaway {
