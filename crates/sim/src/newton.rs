@@ -60,8 +60,9 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
 /// converge reports after about a minute on small meshes, and after the floor of
 /// [`DEFAULT_MAX_ITERATIONS`] on meshes of 20k vertices and more (kitten: about 5 min). Molds
 /// filled to a fifth of their height converge, but in thousands of iterations (measured on
-/// 2026-12-06 at 0.5 m filled to 0.1 m: torus 5603, 2304 vertices; bunny 4186, 3.3k;
-/// fertility 2433, 4.5k; spot 7814, 11.5k vertices, more than its 1734).
+/// 2026-12-06 at 0.5 m filled to 0.1 m: torus 2994, 2304 vertices; bunny 2449, 3.3k;
+/// fertility 1520, 4.5k; spot 4460, 11.5k vertices, more than its 1734; before
+/// [`CREEP_AFTER`] 5603 / 4186 / 2433 / 7814).
 pub const AUTO_ITERATION_BUDGET: usize = 60_000_000;
 
 /// The most iterations the default limit allows (tiny meshes).
@@ -74,6 +75,18 @@ pub const AUTO_MAX_ITERATIONS_CAP: usize = 20_000;
 pub fn auto_max_iterations(dofs: usize) -> usize {
     (AUTO_ITERATION_BUDGET / dofs.max(1)).clamp(DEFAULT_MAX_ITERATIONS, AUTO_MAX_ITERATIONS_CAP)
 }
+
+/// After this many Newton iterations a step the line search shortened raises the damping ×4,
+/// not by 1/α. A solve that has taken this many is creeping: on a mold filled well below its
+/// top, the slack and wrinkled fabric above the liquid slides a little per step (SIMULATION_LOG,
+/// 2026-12-06), a step is cut short every four or so (to α down to 6·10⁻⁵ on the torus filled
+/// to 0.1 m of 0.5 m), and a raise by 1/α then costs the next seven full steps' progress. Measured
+/// on 2026-12-06 (torus, bunny, fertility, spot at 0.5 m): filled to 0.1 m 5603 / 4186 / 2433 /
+/// 7814 → 2994 / 2449 / 1520 / 4460 iterations; filled to 0.25 and 0.35 m 4760 → 4421 in all
+/// (torus and spot at 0.25 m slower: 723 → 804, 675 → 940). Below it the raise by 1/α stays,
+/// which the large full fills need (it took 18 of them 1088 → 876 iterations; ×4 from a
+/// relative residual of 10⁻² or 10⁻³ instead took 21 such solves 851 → 903 or 886).
+pub const CREEP_AFTER: usize = 200;
 
 /// A solve whose equilibrium only starts another (a coarse-start level, a stiffness stage
 /// before the last) gets at most this many Newton iterations, fewer if fewer are left
@@ -809,6 +822,9 @@ pub fn solve(
             failures = 0;
             mu = if accepted == 1.0 {
                 if mu < 1e-9 { 0.0 } else { mu * opts.damping_decrease }
+            } else if stats.iterations > CREEP_AFTER {
+                // A long creep (see CREEP_AFTER): ×4 only.
+                (mu * 4.0).max(1e-8)
             } else {
                 // Raised at least in proportion to how far the step had to be shortened: the
                 // damping is what bounds the next step along the soft directions (there the

@@ -91,19 +91,20 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
         // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; torus,
         // bunny, fertility and spot (2026-12-06) filled to half their height or more in
-        // 147-1166, filled to a fifth in 2433-7814, and with the fabric's weight in 923-2588
-        // (README).
+        // 147-1166 (2026-12-06, before CREEP_AFTER), filled to a fifth in 1520-4460, and with
+        // the fabric's weight torus and bunny in 1082 and 842 against 2994 and 2449 (README).
         let weight = if self_weight {
             ""
         } else {
-            "; so does the fabric's weight, which holds that fabric ([material] self_weight = true: molds filled to a \
-             fifth of their height converged in 923-2588 iterations with it, 2433-7814 without)"
+            "; on some molds so does the fabric's weight, which holds that fabric ([material] self_weight = true: \
+             filled to a fifth of their height, torus and bunny converged in 1082 and 842 iterations with it against \
+             2994 and 2449 without, spot 4125 against 4460, fertility 1829 against 1520)"
         };
         out += &format!(
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
              fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
-             within 1200, filled to a fifth within 2400-7800; this solve was allowed {}: [solver] max_iterations = {})",
+             within 1200, filled to a fifth within 1500-4500; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
             more_iterations(s.max_iterations)
         );
