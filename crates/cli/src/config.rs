@@ -592,9 +592,8 @@ pub enum DampingMatrix {
 /// and at most [`clothcast_sim::newton::AUTO_MAX_ITERATIONS_CAP`] (20000): a solve that does
 /// not converge on a small mesh runs about a minute on the development machine before it says
 /// so (it stopped after 1000 iterations, seconds, before), where molds filled low converge in
-/// thousands; on large meshes 1000 (kitten: about 5 minutes).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(into = "MaxIterationsValue")]
+/// thousands; on large meshes 1000 (kitten filled to a fifth: 214 s).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MaxIterations {
     /// Scaled with the mesh.
     Auto,
@@ -613,12 +612,14 @@ impl MaxIterations {
     }
 }
 
-/// How `max_iterations` is written back (the summary's `scenario`): a number or "auto".
-#[derive(Clone, Debug, Serialize)]
-#[serde(untagged)]
-enum MaxIterationsValue {
-    Number(usize),
-    Word(&'static str),
+/// Written back (the summary's `scenario`) as it is read: a number or "auto".
+impl Serialize for MaxIterations {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Auto => s.serialize_str("auto"),
+            Self::Fixed(n) => s.serialize_u64(*n as u64),
+        }
+    }
 }
 
 /// What [`MaxIterations`] accepts, for its parse errors.
@@ -649,15 +650,6 @@ impl<'de> Deserialize<'de> for MaxIterations {
             }
         }
         d.deserialize_any(Visit)
-    }
-}
-
-impl From<MaxIterations> for MaxIterationsValue {
-    fn from(m: MaxIterations) -> Self {
-        match m {
-            MaxIterations::Auto => Self::Word("auto"),
-            MaxIterations::Fixed(n) => Self::Number(n),
-        }
     }
 }
 

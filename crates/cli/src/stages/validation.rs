@@ -366,11 +366,11 @@ pub fn run(
     let cp = ClosestPoint::new(&input.mesh);
     // Where each segmented vertex lies on the target (they all lie on it).
     let on_target: Vec<ClosestHit> = seg.mesh.positions().iter().map(|p| cp.query(p)).collect();
-    // (Its iteration limit resolved for the target, then below for the sewn mold.)
     let mut sc = crate::stages::simulation::scenario(cfg, input)?;
     // Its steps solved less exactly than stage 1's (see the constant).
     sc.newton.single_step_tolerance = clothcast_sim::newton::SEWN_STEP_TOLERANCE;
-    // The limit for the sewn mold's own size (its seams add vertices).
+    // The iteration limit for the sewn mold's own size (its seams add vertices), not the
+    // target's that `scenario` resolved.
     sc.newton.max_iterations = cfg.solver.max_iterations.resolve(seg.mesh.n_vertices());
     if cfg.suspension.mode == SuspensionMode::Vertices {
         // The clamped target vertices, on the segmented mesh (every target vertex is one of
