@@ -597,8 +597,8 @@ pub enum DampingMatrix {
 pub enum MaxIterations {
     /// Scaled with the mesh.
     Auto,
-    /// This many.
-    Fixed(usize),
+    /// This many (at least one: the type holds no zero, so no solve is allowed none).
+    Fixed(std::num::NonZeroUsize),
 }
 
 impl MaxIterations {
@@ -607,7 +607,7 @@ impl MaxIterations {
     pub fn resolve(self, vertices: usize) -> usize {
         match self {
             Self::Auto => clothcast_sim::newton::auto_max_iterations(3 * vertices),
-            Self::Fixed(n) => n,
+            Self::Fixed(n) => n.get(),
         }
     }
 }
@@ -617,7 +617,7 @@ impl Serialize for MaxIterations {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match self {
             Self::Auto => s.serialize_str("auto"),
-            Self::Fixed(n) => s.serialize_u64(*n as u64),
+            Self::Fixed(n) => s.serialize_u64(n.get() as u64),
         }
     }
 }
@@ -634,7 +634,10 @@ impl<'de> Deserialize<'de> for MaxIterations {
                 f.write_str(MAX_ITERATIONS_EXPECTED)
             }
             fn visit_u64<E: serde::de::Error>(self, n: u64) -> Result<MaxIterations, E> {
-                usize::try_from(n).map(MaxIterations::Fixed).map_err(|_| E::custom(format!("{n} is too large")))
+                let n = usize::try_from(n).map_err(|_| E::custom(format!("{n} is too large")))?;
+                std::num::NonZeroUsize::new(n)
+                    .map(MaxIterations::Fixed)
+                    .ok_or_else(|| E::custom(format!("expected {MAX_ITERATIONS_EXPECTED}, found 0")))
             }
             fn visit_i64<E: serde::de::Error>(self, n: i64) -> Result<MaxIterations, E> {
                 match u64::try_from(n) {
@@ -841,9 +844,6 @@ impl Config {
                  1.0e-12 at 0.5 m, 1.8e-12 at 0.3 m)",
             ));
         }
-        if self.solver.max_iterations == MaxIterations::Fixed(0) {
-            return Err(err("solver", "max_iterations", "0".into(), "must be at least 1"));
-        }
         if self.solver.coarse_start_ratio < 2 {
             return Err(err(
                 "solver",
@@ -1046,7 +1046,7 @@ mod tests {
     fn max_iterations_is_a_number_or_auto() {
         assert_eq!(Config::default().solver.max_iterations, MaxIterations::Auto);
         let c = Config::from_toml("[solver]\nmax_iterations = 250\n", "c").unwrap();
-        assert_eq!(c.solver.max_iterations, MaxIterations::Fixed(250));
+        assert_eq!(c.solver.max_iterations, MaxIterations::Fixed(std::num::NonZeroUsize::new(250).unwrap()));
         assert_eq!(c.solver.max_iterations.resolve(1_000_000), 250);
         let c = Config::from_toml("[solver]\nmax_iterations = \"auto\"\n", "c").unwrap();
         assert_eq!(c.solver.max_iterations, MaxIterations::Auto);
@@ -1062,7 +1062,7 @@ mod tests {
             ("2.5", "(at least 1) or \"auto\""),
             ("true", "(at least 1) or \"auto\""),
             ("[3]", "(at least 1) or \"auto\""),
-            ("0", "must be at least 1"),
+            ("0", "(at least 1) or \"auto\", found 0"),
         ] {
             let e =
                 Config::from_toml(&format!("[solver]\nmax_iterations = {bad}\n"), "c.toml").unwrap_err().to_string();

@@ -160,6 +160,11 @@ fn check_run(out: &Path) -> Value {
     assert!((0.0..=90.0).contains(&turn), "{v}");
     assert_eq!(v["converged"], true, "{v}");
     assert_eq!(v["faces"], s["segmentation"]["faces"]);
+    // The check's own iteration limit, "auto" resolved for the sewn mesh (its seams split
+    // vertices, so it has more than the target).
+    let sewn = v["vertices"].as_u64().unwrap() as usize;
+    assert!(sewn > s["input"]["vertices"].as_u64().unwrap() as usize, "{v}");
+    assert_eq!(v["max_iterations"].as_u64().unwrap() as usize, clothcast_sim::newton::auto_max_iterations(3 * sewn));
     let (dev, design) = (v["deviation_mean_m"].as_f64().unwrap(), v["design_deviation_mean_m"].as_f64().unwrap());
     assert!(dev > 0.0 && design > 0.0 && dev < 4.0 * design, "{v}");
     assert!(v["deviation_mean_rel"].as_f64().unwrap() < 0.25, "{v}");
