@@ -63,7 +63,7 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
 /// filled to a fifth of their height converge, but in thousands of iterations (measured on
 /// 2026-12-06 at 0.5 m filled to 0.1 m: torus 2994, 2304 vertices; bunny 2449, 3.3k;
 /// fertility 1520, 4.5k; spot 4460, 11.5k vertices, more than its 1734; before
-/// [`CREEP_AFTER`] 5603 / 4186 / 2433 / 7814; on 2026-12-07 kitten, 53k vertices, 5678 in 29
+/// [`CREEP_AFTER`] 5603 / 4186 / 2433 / 7814; on 2026-12-07 kitten, 53k vertices, 3514 in 17
 /// minutes, more than its 1000).
 pub const AUTO_ITERATION_BUDGET: usize = 60_000_000;
 
@@ -90,10 +90,11 @@ pub fn auto_max_iterations(dofs: usize) -> usize {
 /// relative residual of 10⁻² or 10⁻³ instead took 21 such solves 851 → 903 or 886).
 pub const CREEP_AFTER: usize = 200;
 
-/// A solve whose equilibrium only starts another (a coarse-start level, a stiffness stage
-/// before the last) gets at most this many Newton iterations, fewer if fewer are left
-/// ([`NewtonOptions::for_start`]): one that takes longer is no quick start, and the solve after
-/// it goes on from where it stopped (a stage) or from its own start (a coarse level). Kitten's
+/// A stiffness stage before the last, whose equilibrium only starts the next, gets at most
+/// this many Newton iterations, fewer if fewer are left ([`NewtonOptions::for_start`]): one
+/// that takes longer is no quick start, and the next stage goes on from where it stopped. (The
+/// coarse-start levels had it too until 2026-12-07; they now have
+/// [`crate::coarse::COARSE_MAX_ITERATIONS`].) Kitten's
 /// coarse levels at 0.5 m take 27 and 29 (under plain StVK 184 and 110); stiffness stages of
 /// spot, bunny and fertility 0.1 m tall of 300 kN/m, 10–34 (measured on 2026-12-06). This was
 /// the whole solve's default limit until 2026-12-06; with 1000, a first stage that crept took

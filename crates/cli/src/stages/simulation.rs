@@ -104,7 +104,7 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
              fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
-             within 1200, filled to a fifth within 1500-5700, kitten's 53k vertices in 5678 taking 29 minutes; this \
+             within 1200, filled to a fifth within 1500-4500, kitten's 53k vertices in 3514 taking 17 minutes; this \
              solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
             more_iterations(s.max_iterations).max(PARTIAL_FILL_ITERATIONS)
@@ -114,8 +114,9 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
 }
 
 /// The iterations a partial fill's message suggests at least: molds filled to a fifth of
-/// their height converged in 1520-5678 (measured on 2026-12-06 and 07 at 0.5 m filled to
-/// 0.1 m: fertility 1520, bunny 2449, torus 2994, spot 4460 and kitten 5678, 29 minutes), more
+/// their height converged in 1520-4460 (measured on 2026-12-06 and 07 at 0.5 m filled to
+/// 0.1 m: fertility 1520, bunny 2449, torus 2994, spot 4460; kitten 3514 in 17 minutes from
+/// its coarse levels, 5678 when they were allowed only 200), more
 /// than twice the limits of spot (1734) and kitten (1000), which [`more_iterations`] would
 /// have suggested (4000 and 3000).
 const PARTIAL_FILL_ITERATIONS: usize = 8000;
