@@ -338,11 +338,12 @@ fn an_overstretched_fabric_is_warned_about() {
 /// On a mold filled well below its top a coarse level creeps as the fine solve does: it may
 /// take up to `COARSE_MAX_ITERATIONS`, and once converged it starts the fine solve (with the
 /// former 200 it stopped unconverged and was thrown away). The bunny at 0.5 m filled to 0.1 m,
-/// given the coarse start: its 1648-face level converges in 415 (measured on 2026-12-07).
+/// given the coarse start: its 1648-face level converges in 415 (measured on 2026-12-07), within
+/// the 600 the whole solve is allowed (a level gets no more than that).
 #[test]
 fn a_coarse_level_of_a_low_fill_may_take_more_than_200_iterations() {
     let out = tmpdir("coarse-creep");
-    let toml = "[mesh]\nheight = 0.5\n[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 450\n\
+    let toml = "[mesh]\nheight = 0.5\n[infill]\nfill_level = 0.1\n[solver]\nmax_iterations = 600\n\
                 coarse_start_min_faces = 4000\n";
     let bunny = data("closed/bunny.obj");
     run_configured("simulate", &out, toml, &[bunny.to_str().unwrap(), "--allow-unconverged"], 0);
@@ -350,8 +351,5 @@ fn a_coarse_level_of_a_low_fill_may_take_more_than_200_iterations() {
     assert_eq!(level["converged"], true, "{level}");
     assert_eq!(level["used"], true, "{level}");
     let its = level["newton_iterations"].as_u64().unwrap() as usize;
-    assert!(
-        its > clothcast_sim::newton::START_MAX_ITERATIONS && its <= clothcast_sim::coarse::COARSE_MAX_ITERATIONS,
-        "{level}"
-    );
+    assert!(its > clothcast_sim::newton::START_MAX_ITERATIONS && its <= 600, "{level}");
 }

@@ -74,7 +74,9 @@ pub const CASCADE_MIN_FACES: usize = 2000;
 /// coarse start is given up.
 pub const SIMPLIFY_TRIES: usize = 3;
 
-/// Newton iterations a coarse level may take (fewer if the fine solve is allowed fewer): it is
+/// Newton iterations a coarse level may take (fewer if the whole solve is allowed fewer; also
+/// when it starts the first of a stiff mold's stages, which itself gets at most
+/// [`crate::newton::START_MAX_ITERATIONS`]): it is
 /// only a start, but on a mold filled well below its top a level that has not converged is
 /// thrown away, and the fine solve then starts from the target. Measured on 2026-12-07, kitten
 /// at 0.5 m filled to 0.1 m (8000 allowed): with 200 (`NewtonOptions::for_start`, until then)

@@ -104,22 +104,36 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
              fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
-             within 1200, filled to a fifth within 1500-4500, kitten's 53k vertices in 3514 taking 17 minutes; this \
-             solve was allowed {}: [solver] max_iterations = {})",
+             within 1200, filled to a fifth within 1500-5600, kitten's 53k vertices in 3514 taking 17 minutes, \
+             bunny_hr's 30k in 5548 taking 12; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
-            more_iterations(s.max_iterations).max(PARTIAL_FILL_ITERATIONS)
+            suggested_iterations(s)
         );
     }
     out
 }
 
 /// The iterations a partial fill's message suggests at least: molds filled to a fifth of
-/// their height converged in 1520-4460 (measured on 2026-12-06 and 07 at 0.5 m filled to
-/// 0.1 m: fertility 1520, bunny 2449, torus 2994, spot 4460; kitten 3514 in 17 minutes from
-/// its coarse levels, 5678 when they were allowed only 200), more
-/// than twice the limits of spot (1734) and kitten (1000), which [`more_iterations`] would
-/// have suggested (4000 and 3000).
+/// their height converged in 1520-5548 (measured on 2026-12-06 and 07 at 0.5 m filled to
+/// 0.1 m: fertility 1520, bunny 2449, torus 2994, spot 4460; kitten 3514 in 17 minutes and
+/// bunny_hr 5548 in 12 from their coarse levels, 5678 and 5617 when the levels were allowed
+/// only 200), more than twice the limits of spot (1734), kitten and bunny_hr (1000), which
+/// [`more_iterations`] would have suggested (4000 and 3000).
 const PARTIAL_FILL_ITERATIONS: usize = 8000;
+
+/// The iteration limit a message suggests for a solve that did not converge: [`more_iterations`],
+/// and at least [`PARTIAL_FILL_ITERATIONS`] when its largest unbalanced force sits above the
+/// liquid (one number, whichever hints the message gives).
+fn suggested_iterations(s: &clothcast_sim::SimStats) -> usize {
+    suggest(s.max_iterations, above_level(s))
+}
+
+/// [`suggested_iterations`] after a solve allowed `limit`, whose largest unbalanced force sits
+/// above the liquid (`above`) or not.
+fn suggest(limit: usize, above: bool) -> usize {
+    let more = more_iterations(limit);
+    if above { more.max(PARTIAL_FILL_ITERATIONS) } else { more }
+}
 
 /// The largest unbalanced force of a solve that did not converge sits above the liquid (a
 /// partial fill's unloaded fabric).
@@ -174,7 +188,7 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): more \
          iterations may help ([solver] max_iterations = {})",
-        more_iterations(s.max_iterations)
+        suggested_iterations(s)
     )
 }
 
@@ -354,6 +368,17 @@ mod tests {
     fn more_iterations_doubles_the_limit_in_thousands() {
         for (limit, more) in [(3, 3000), (1000, 3000), (1734, 4000), (8680, 18000), (20_000, 40_000)] {
             assert_eq!(super::more_iterations(limit), more, "{limit}");
+        }
+    }
+
+    #[test]
+    fn a_partial_fill_is_suggested_at_least_8000_iterations() {
+        // Below the level (or no infill) twice the limit; above it at least 8000, and twice the
+        // limit when that is more.
+        for (limit, above, more) in
+            [(1000, false, 3000), (1000, true, 8000), (1734, true, 8000), (8680, true, 18000), (20_000, true, 40_000)]
+        {
+            assert_eq!(super::suggest(limit, above), more, "{limit} {above}");
         }
     }
 }
