@@ -243,11 +243,7 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
     let cons = constraints.restrict(&coarse.parent);
     let coarse_start_x: Vec<Vec3> = coarse.parent.iter().map(|p| start[p.idx()]).collect();
     let mut sys = System::new(&coarse.mesh, material, loads.clone(), &cons, supports.to_vec(), barrier);
-    let opts = NewtonOptions {
-        tolerance: opts.tolerance.max(COARSE_TOLERANCE),
-        max_iterations: opts.max_iterations.min(COARSE_MAX_ITERATIONS),
-        ..opts.clone()
-    };
+    let opts = NewtonOptions { tolerance: opts.tolerance.max(COARSE_TOLERANCE), ..opts.at_most(COARSE_MAX_ITERATIONS) };
     // The next level of the cascade, if it is still large enough; if it gives no start, or the
     // solve from its start fails, this level is solved from its own start (its target, lifted
     // clear of the supports as the fine one's).

@@ -136,9 +136,14 @@ pub struct NewtonOptions {
 }
 
 impl NewtonOptions {
+    /// These options with at most `n` iterations.
+    pub fn at_most(&self, n: usize) -> Self {
+        Self { max_iterations: self.max_iterations.min(n), ..self.clone() }
+    }
+
     /// These options for a solve that only starts another ([`START_MAX_ITERATIONS`]).
     pub fn for_start(&self) -> Self {
-        Self { max_iterations: self.max_iterations.min(START_MAX_ITERATIONS), ..self.clone() }
+        self.at_most(START_MAX_ITERATIONS)
     }
 }
 

@@ -265,7 +265,7 @@ fn marks_per_piece(
     seg: &Segmentation,
     flat: &FlatPieces,
 ) -> Result<Vec<Vec<PointMark>>, Failure> {
-    let scenario = crate::stages::simulation::scenario(cfg, input)?;
+    let scenario = crate::stages::simulation::scenario(cfg, input, input.mesh.n_vertices())?;
     let constraints = clothcast_sim::scenario::suspension_constraints(&input.mesh, &scenario.suspension, &input.up)
         .map_err(|e| Failure::Input(anyhow::anyhow!("{e}")))?;
     // Segmented vertices that are clamped input vertices.

@@ -13,8 +13,9 @@ use clothcast_sim::newton::{FactorPrecision, NewtonOptions};
 use clothcast_sim::{FillLevel, Scenario, SimResult, Suspension, simulate};
 use std::path::Path;
 
-/// The library scenario of a configuration.
-pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
+/// The library scenario of a configuration, for a solve on a mesh of `vertices` vertices (the
+/// target's, or the sewn mold's: they set the `"auto"` iteration limit).
+pub fn scenario(cfg: &Config, input: &Input, vertices: usize) -> Result<Scenario, Failure> {
     let suspension = match cfg.suspension.mode {
         SuspensionMode::TopBand => Suspension::TopBand { band: cfg.suspension.band },
         SuspensionMode::Boundary => Suspension::Boundary,
@@ -54,7 +55,7 @@ pub fn scenario(cfg: &Config, input: &Input) -> Result<Scenario, Failure> {
         gravity: clothcast_sim::scenario::GRAVITY,
         newton: NewtonOptions {
             tolerance: cfg.solver.tolerance,
-            max_iterations: cfg.solver.max_iterations.resolve(input.mesh.n_vertices()),
+            max_iterations: cfg.solver.max_iterations.resolve(vertices),
             factor_precision: match cfg.solver.factor_precision {
                 config::FactorPrecision::Auto => FactorPrecision::Auto,
                 config::FactorPrecision::Double => FactorPrecision::Double,
@@ -107,7 +108,7 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
              within 1200, filled to a fifth within 1500-5600, kitten's 53k vertices in 3514 taking 17 minutes, \
              bunny_hr's 30k in 5548 taking 12; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
-            suggested_iterations(s)
+            suggested_iterations(s.max_iterations, true)
         );
     }
     out
@@ -117,21 +118,16 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
 /// their height converged in 1520-5548 (measured on 2026-12-06 and 07 at 0.5 m filled to
 /// 0.1 m: fertility 1520, bunny 2449, torus 2994, spot 4460; kitten 3514 in 17 minutes and
 /// bunny_hr 5548 in 12 from their coarse levels, 5678 and 5617 when the levels were allowed
-/// only 200), more than twice the limits of spot (1734), kitten and bunny_hr (1000), which
-/// [`more_iterations`] would have suggested (4000 and 3000).
+/// only 200), more than twice the limits of spot (1734), kitten and bunny_hr (1000) (4000
+/// and 3000).
 const PARTIAL_FILL_ITERATIONS: usize = 8000;
 
-/// The iteration limit a message suggests for a solve that did not converge: [`more_iterations`],
-/// and at least [`PARTIAL_FILL_ITERATIONS`] when its largest unbalanced force sits above the
-/// liquid (one number, whichever hints the message gives).
-fn suggested_iterations(s: &clothcast_sim::SimStats) -> usize {
-    suggest(s.max_iterations, above_level(s))
-}
-
-/// [`suggested_iterations`] after a solve allowed `limit`, whose largest unbalanced force sits
-/// above the liquid (`above`) or not.
-fn suggest(limit: usize, above: bool) -> usize {
-    let more = more_iterations(limit);
+/// The iteration limit a message suggests after a solve allowed `limit` did not converge
+/// (one number, whichever hints the message gives): twice as many, rounded up to a thousand,
+/// at least 3000 (the floor of 1000 doubled, and the stiff small molds' need), and at least
+/// [`PARTIAL_FILL_ITERATIONS`] when its largest unbalanced force sits above the liquid (`above`).
+fn suggested_iterations(limit: usize, above: bool) -> usize {
+    let more = limit.saturating_mul(2).div_ceil(1000).saturating_mul(1000).max(3000);
     if above { more.max(PARTIAL_FILL_ITERATIONS) } else { more }
 }
 
@@ -188,14 +184,8 @@ fn stiff_hint(s: &clothcast_sim::SimStats) -> String {
          stretches, and Newton takes many short steps while the wrinkles settle, even in stages of growing \
          stiffness (simulation.stiffness_stages; spot 0.1 m tall of a 300 kN/m fabric: 148 iterations): more \
          iterations may help ([solver] max_iterations = {})",
-        suggested_iterations(s)
+        suggested_iterations(s.max_iterations, above_level(s))
     )
-}
-
-/// An iteration limit to suggest after a solve allowed `limit`: twice as many, rounded up to
-/// a thousand, and at least 3000 (the floor of 1000 doubled, and the stiff small molds' need).
-fn more_iterations(limit: usize) -> usize {
-    limit.saturating_mul(2).div_ceil(1000).saturating_mul(1000).max(3000)
 }
 
 /// A principal stretch beyond this (50%: three times the largest stretch, 7/6, at which the
@@ -235,7 +225,7 @@ const RUNAWAY: f64 = 10.0;
 
 /// Run the simulation, refuse a non-converged result unless allowed.
 pub fn run(cfg: &Config, input: &Input, progress: &Progress) -> Result<SimResult, Failure> {
-    let sc = scenario(cfg, input)?;
+    let sc = scenario(cfg, input, input.mesh.n_vertices())?;
     let (y, nu) = (cfg.material.youngs_modulus, cfg.material.poisson_ratio);
     let material: Box<dyn Material> = match cfg.material.model {
         MaterialModel::TensionField => Box::new(WrinklingStVenantKirchhoff::from_young_poisson(y, nu)),
@@ -365,9 +355,9 @@ fn smallest_angle_deg(input: &Input) -> f64 {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn more_iterations_doubles_the_limit_in_thousands() {
+    fn suggested_iterations_double_the_limit_in_thousands() {
         for (limit, more) in [(3, 3000), (1000, 3000), (1734, 4000), (8680, 18000), (20_000, 40_000)] {
-            assert_eq!(super::more_iterations(limit), more, "{limit}");
+            assert_eq!(super::suggested_iterations(limit, false), more, "{limit}");
         }
     }
 
@@ -378,7 +368,7 @@ mod tests {
         for (limit, above, more) in
             [(1000, false, 3000), (1000, true, 8000), (1734, true, 8000), (8680, true, 18000), (20_000, true, 40_000)]
         {
-            assert_eq!(super::suggest(limit, above), more, "{limit} {above}");
+            assert_eq!(super::suggested_iterations(limit, above), more, "{limit} {above}");
         }
     }
 }

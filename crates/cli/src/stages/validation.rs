@@ -366,12 +366,10 @@ pub fn run(
     let cp = ClosestPoint::new(&input.mesh);
     // Where each segmented vertex lies on the target (they all lie on it).
     let on_target: Vec<ClosestHit> = seg.mesh.positions().iter().map(|p| cp.query(p)).collect();
-    let mut sc = crate::stages::simulation::scenario(cfg, input)?;
+    // The iteration limit for the sewn mold's own size (its seams add vertices).
+    let mut sc = crate::stages::simulation::scenario(cfg, input, seg.mesh.n_vertices())?;
     // Its steps solved less exactly than stage 1's (see the constant).
     sc.newton.single_step_tolerance = clothcast_sim::newton::SEWN_STEP_TOLERANCE;
-    // The iteration limit for the sewn mold's own size (its seams add vertices), not the
-    // target's that `scenario` resolved.
-    sc.newton.max_iterations = cfg.solver.max_iterations.resolve(seg.mesh.n_vertices());
     if cfg.suspension.mode == SuspensionMode::Vertices {
         // The clamped target vertices, on the segmented mesh (every target vertex is one of
         // its), and the vertices the segmentation inserted on an edge between two of them (a
