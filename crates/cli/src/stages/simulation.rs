@@ -362,6 +362,27 @@ mod tests {
     }
 
     #[test]
+    fn the_auto_limit_is_that_of_the_vertex_count_given() {
+        // The validation stage resolves "auto" for the sewn mesh, which has more vertices than
+        // the target: the limit must follow the count passed, not the input's.
+        use clothcast_sim::newton::auto_max_iterations;
+        let cfg = crate::config::Config::default();
+        let input = crate::input::load(&cfg, &clothcast_mesh::repair::RepairOptions::default()).unwrap();
+        let n = input.mesh.n_vertices();
+        let target = super::scenario(&cfg, &input, n).unwrap().newton.max_iterations;
+        let sewn = super::scenario(&cfg, &input, 3 * n).unwrap().newton.max_iterations;
+        assert_eq!(target, auto_max_iterations(3 * n));
+        assert_eq!(sewn, auto_max_iterations(9 * n));
+        // Both inside the clamp's range on the built-in example, so they differ.
+        assert!(sewn < target, "{sewn} {target}");
+        // A fixed limit is the same for both.
+        let fixed: crate::config::Config =
+            crate::config::Config::from_toml("[solver]\nmax_iterations = 1234\n", "t").unwrap();
+        assert_eq!(super::scenario(&fixed, &input, n).unwrap().newton.max_iterations, 1234);
+        assert_eq!(super::scenario(&fixed, &input, 3 * n).unwrap().newton.max_iterations, 1234);
+    }
+
+    #[test]
     fn a_partial_fill_is_suggested_at_least_8000_iterations() {
         // Below the level (or no infill) twice the limit; above it at least 8000, and twice the
         // limit when that is more.
