@@ -56,10 +56,10 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
 /// The work the default iteration limit allows a solve, in Newton iterations times degrees of
 /// freedom ([`auto_max_iterations`]; the CLI counts three per vertex, clamped ones included): a
 /// Newton iteration costs about 1.0–1.3 µs per dof on the 2-core development machine below 35k
-/// dofs (torus, bunny, spot: 7 / 12 / 42 ms), kitten's 2.1 µs, about twice that late in a
-/// creep, so a solve that does not converge reports after one to three minutes on small meshes
-/// (measured on 2026-12-07, filled to a fifth and run to the limit: torus 120 s, bunny 155 s,
-/// fertility 141 s, spot 72 s), and after the floor of
+/// dofs (torus, bunny, spot: 7 / 12 / 42 ms), kitten's 2.1 µs, so a solve that does not
+/// converge reports after one to two and a half minutes on small meshes (filled to a fifth and
+/// run to the limit: spot 72 s; torus, bunny, fertility 120 / 155 / 141 s on a day the machine
+/// ran 1.5–2× slow), and after the floor of
 /// [`DEFAULT_MAX_ITERATIONS`] on meshes of 20k vertices and more (kitten filled to a fifth:
 /// 214 s, measured on 2026-12-06, its coarse levels then allowed 200). Molds
 /// filled to a fifth of their height converge, but in thousands of iterations (measured on
