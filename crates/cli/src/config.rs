@@ -592,8 +592,9 @@ pub enum DampingMatrix {
 /// and at most [`clothcast_sim::newton::AUTO_MAX_ITERATIONS_CAP`] (20000): a solve that does
 /// not converge on a small mesh runs one to two and a half minutes on the development machine
 /// before it says so (filled to a fifth: spot 72 s; torus, bunny, fertility 120 / 155 / 141 s
-/// on a day the machine ran 1.5–2× slow; it stopped after 1000 iterations, seconds, before), where molds filled low converge in
-/// thousands; on large meshes 1000 (kitten filled to a fifth: 214 s, measured before its coarse levels got 1000 iterations).
+/// on a day the machine ran 1.4–2.5× slow; it stopped after 1000 iterations, seconds, before),
+/// where molds filled low converge in thousands; on large meshes 1000 (kitten filled to a
+/// fifth: 214 s, measured before its coarse levels got 1000 iterations).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MaxIterations {
     /// Scaled with the mesh.

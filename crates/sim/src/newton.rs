@@ -59,7 +59,7 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
 /// dofs (torus, bunny, spot: 7 / 12 / 42 ms), kitten's 2.1 µs, so a solve that does not
 /// converge reports after one to two and a half minutes on small meshes (filled to a fifth and
 /// run to the limit: spot 72 s; torus, bunny, fertility 120 / 155 / 141 s on a day the machine
-/// ran 1.5–2× slow), and after the floor of
+/// ran 1.4–2.5× slow), and after the floor of
 /// [`DEFAULT_MAX_ITERATIONS`] on meshes of 20k vertices and more (kitten filled to a fifth:
 /// 214 s, measured on 2026-12-06, its coarse levels then allowed 200). Molds
 /// filled to a fifth of their height converge, but in thousands of iterations (measured on
