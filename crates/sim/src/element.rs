@@ -156,6 +156,20 @@ impl Element {
         (self.area * energy, g, h)
     }
 
+    /// The largest principal Green strain e1 at corners `x` and its gradient with respect to
+    /// each corner: with p the unit eigenvector of e1 in the rest frame, `δe1 = pᵀ δE p =
+    /// (F p)·(δF p)` and `δF p = Σ_a δx_a (∇N_a·p)`, so `∂e1/∂x_a = (∇N_a·p) F p` (where e1 is
+    /// a simple eigenvalue; at a double one, that of the direction the eigen-solver picks).
+    pub fn largest_strain_gradient(&self, x: &[Vec3; 3]) -> (f64, [Vec3; 3]) {
+        let k = self.kinematics(x);
+        let e = k.strain;
+        let (e1, _) = sym2_eigenvalues(e[0], 0.5 * e[2], e[1]);
+        let th = sym2_angle(e[0], 0.5 * e[2], e[1]);
+        let p = Vector2::new(th.cos(), th.sin());
+        let fp = k.f[0] * p[0] + k.f[1] * p[1];
+        (e1, [0, 1, 2].map(|a| fp * self.grad_n[a].dot(&p)))
+    }
+
     /// Eigenvalues λ1 ≥ λ2 of C = FᵀF (squared principal stretches) and the unit direction
     /// of λ1 in the rest (face) frame.
     pub fn principal_stretches(&self, x: &[Vec3; 3]) -> (f64, f64, Vector2<f64>) {
@@ -306,6 +320,31 @@ mod tests {
 
     use crate::material::StVenantKirchhoff;
     use nalgebra::Rotation3;
+
+    #[test]
+    fn the_largest_strain_gradient_matches_finite_differences() {
+        let rest = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.03, 0.0, 0.0), Vec3::new(0.01, 0.025, 0.0)];
+        let el = Element::from_corners(&rest);
+        let rot = Rotation3::from_euler_angles(0.3, -0.7, 1.1);
+        // Slack (compressed both ways), wrinkled (stretched one way) and taut, rotated in space.
+        for (sx, sy, shear) in [(0.97, 0.95, 0.01), (1.02, 0.9, -0.03), (1.05, 1.03, 0.02)] {
+            let x = rest.map(|p| rot * Vec3::new(sx * p[0] + shear * p[1], sy * p[1], 0.002 * p[0]));
+            let (e1, g) = el.largest_strain_gradient(&x);
+            let e1_at = |q: &[Vec3; 3]| {
+                let e = el.kinematics(q).strain;
+                sym2_eigenvalues(e[0], 0.5 * e[2], e[1]).0
+            };
+            assert!((e1 - e1_at(&x)).abs() < 1e-15);
+            let h = 1e-7;
+            for c in 0..9 {
+                let (mut xp, mut xm) = (x, x);
+                xp[c / 3][c % 3] += h;
+                xm[c / 3][c % 3] -= h;
+                let fd = (e1_at(&xp) - e1_at(&xm)) / (2.0 * h);
+                assert!((fd - g[c / 3][c % 3]).abs() < 1e-6, "({sx}, {sy}) dof {c}: {fd} vs {}", g[c / 3][c % 3]);
+            }
+        }
+    }
 
     #[test]
     fn seam_bar_derivatives() {

@@ -16,6 +16,7 @@
 //! - [`constraints`]: clamps and sliding constraints as per-vertex frames.
 //! - [`system`], [`newton`]: assembly with a fixed sparse pattern and the Newton solver with a
 //!   reused symbolic Cholesky factorization.
+//! - [`walls`]: the slack faces a creeping Newton step runs into, in the next step's model.
 //! - [`relax`]: nonlinear block Gauss–Seidel on the vertices a Newton step sent too far.
 //! - [`coarse`]: the coarse start (the equilibrium of a simplified mold as the fine solve's
 //!   starting point).
@@ -42,6 +43,7 @@ pub mod newton;
 pub mod relax;
 pub mod scenario;
 pub mod system;
+pub mod walls;
 
 pub use material::{Material, StVenantKirchhoff, WovenFabric};
 pub use scenario::{

@@ -48,6 +48,12 @@ pub trait Material: Send + Sync {
     fn exact_geometric_below(&self) -> f64 {
         crate::newton::EXACT_TAIL
     }
+    /// The stiffness Y (N/m) a slack face takes on along its largest principal strain once that
+    /// turns positive (`W = ½ Y e1²` there), for the slack walls of Newton's step model
+    /// ([`crate::walls`]); `None` (the default): the material has no slack state to wall.
+    fn slack_wall_stiffness(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// Isotropic St. Venant–Kirchhoff membrane in plane stress:
@@ -209,6 +215,9 @@ impl Material for WrinklingStVenantKirchhoff {
     }
     fn is_uniform(&self) -> bool {
         true
+    }
+    fn slack_wall_stiffness(&self) -> Option<f64> {
+        Some(self.stvk.youngs_modulus())
     }
 }
 

@@ -135,6 +135,9 @@ pub struct NewtonOptions {
     /// Newton residual, when smaller): [`SINGLE_STEP_TOLERANCE`], or the looser
     /// [`SEWN_STEP_TOLERANCE`] for the check's solve.
     pub single_step_tolerance: f64,
+    /// After [`CREEP_AFTER`] iterations, the slack faces the last step ran into enter the next
+    /// step's model as one-sided walls ([`crate::walls`]; materials with a slack state only).
+    pub slack_walls: bool,
 }
 
 impl NewtonOptions {
@@ -162,6 +165,7 @@ impl Default for NewtonOptions {
             relax_fraction: 0.9,
             damping: Damping::Laplacian,
             single_step_tolerance: SINGLE_STEP_TOLERANCE,
+            slack_walls: true,
         }
     }
 }
@@ -422,6 +426,10 @@ pub struct SolveStats {
     pub relaxed_vertices: usize,
     /// Seconds in relaxations (included in `line_search_seconds`).
     pub relax_seconds: f64,
+    /// Steps whose model had slack walls ([`crate::walls`]).
+    pub wall_steps: usize,
+    /// Slack walls over those steps.
+    pub wall_faces: usize,
     /// Final relative residual.
     pub residual_rel: f64,
     /// Set when the solve stopped above the tolerance because the residual had reached its
@@ -534,6 +542,8 @@ pub fn solve(
     // relaxation needs them) and at a trial point.
     let (mut base_faces, mut trial_faces) = (Vec::new(), Vec::new());
     let relax_tolerance = RELAX_TOLERANCE * sys.mean_edge_length();
+    // The faces that are walls of the next step's model, by face index.
+    let mut wall_next = vec![false; sys.n_faces()];
     let residual_floor = sys.residual_floor();
     let termination;
     let mut last_world_gradient;
@@ -581,12 +591,24 @@ pub fn solve(
         }
         stats.iterations += 1;
         let mut vals = ev.hessian.expect("requested");
+        let mut rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
+        // A creeping solve: the slack faces the last step ran into are walls of this step's
+        // model (see crate::walls).
+        let walls = if opts.slack_walls && stats.iterations > CREEP_AFTER { sys.slack_walls(&x) } else { Vec::new() };
+        let mut walled = 0;
+        for w in walls.iter().filter(|w| wall_next[w.face as usize]) {
+            w.add_to(sys.pattern(), &mut vals, &mut rhs);
+            walled += 1;
+        }
+        if walled > 0 {
+            stats.wall_steps += 1;
+            stats.wall_faces += walled;
+        }
         // The undamped values where the damping matrix adds, to re-damp from.
         let base = damping.save(&vals);
         if mu > 0.0 {
             damping.add(&mut vals, mu);
         }
-        let rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
         let mut step = vec![0.0; rhs.len()];
         // Inexact Newton: conjugate gradients preconditioned by the last factor (forcing term
         // min(0.1, √r)), worth it only when it converges in a few iterations, so tried only
@@ -732,6 +754,14 @@ pub fn solve(
                 break;
             }
             pcg_promising = true;
+        }
+
+        // The next step's walls: the slack faces this one runs into, e1 linearized along it.
+        wall_next.fill(false);
+        for w in &walls {
+            if w.strain_along(&step) > 0.0 {
+                wall_next[w.face as usize] = true;
+            }
         }
 
         // The step is solved (the factor holds its own copy of the values): the Hessian's

@@ -13,6 +13,7 @@ use crate::element::{Bar, Element, Mat9, Vec9, add_bars, add_bars_corner, add_ba
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane, face_volume};
 use crate::material::Material;
+use crate::walls::Wall;
 use clothcast_mesh::sparse::SymmetricPattern;
 use clothcast_mesh::util::group_by_key;
 use clothcast_mesh::{FaceId, Mesh, Vec3, VertexId};
@@ -364,6 +365,11 @@ impl<'a> System<'a> {
     /// The material.
     pub fn material(&self) -> &'a dyn Material {
         self.material
+    }
+
+    /// Number of faces.
+    pub fn n_faces(&self) -> usize {
+        self.mesh.n_faces()
     }
 
     /// Number of free degrees of freedom.
@@ -861,6 +867,34 @@ impl<'a> System<'a> {
             vals
         });
         Evaluation { energy, gradient, external, hessian: hess, world_gradient: grad, energy_magnitude, internal_norm }
+    }
+
+    /// The slack faces at `x` (largest principal Green strain e1 ≤ 0) as walls of Newton's step
+    /// model ([`crate::walls`]), in face storage order; none when the material has no slack
+    /// state.
+    pub fn slack_walls(&self, x: &[Vec3]) -> Vec<Wall> {
+        let Some(y) = self.material.slack_wall_stiffness() else { return Vec::new() };
+        self.stored
+            .par_iter()
+            .filter_map(|sf| {
+                let (e1, grad) = sf.element.largest_strain_gradient(&sf.vertices.map(|v| x[v.idx()]));
+                if e1 > 0.0 {
+                    return None;
+                }
+                let (mut dofs, mut coef) = ([u32::MAX; 9], [0.0; 9]);
+                for (a, v) in sf.vertices.iter().enumerate() {
+                    for k in 0..3 {
+                        let i = self.dof[v.idx()][k];
+                        if i != u32::MAX {
+                            dofs[3 * a + k] = i;
+                            coef[3 * a + k] = grad[a].dot(&self.dof_direction(v.idx(), k));
+                        }
+                    }
+                }
+                let face = u32::try_from(sf.face.idx()).expect("fewer than 95M faces");
+                Some(Wall { face, e1, stiffness: sf.element.area * y, dofs, coef })
+            })
+            .collect()
     }
 
     /// World vectors per vertex → values on free dofs (projected on the free axes).

@@ -1,0 +1,114 @@
+//! Slack walls: the slack faces a Newton step runs into, in the next step's model.
+//!
+//! On a mold filled well below its top, the fabric above the liquid hangs slack or wrinkled and
+//! carries the liquid's weight to the clamps along wrinkled tension paths; Newton then creeps
+//! for thousands of iterations (SIMULATION_LOG, 2026-12-06 to 12-07). Traced on the torus
+//! filled to 0.1 m of 0.5 m (2026-12-07, twenty-ninth session), every full step the line search
+//! rejected in the creep rose in energy through the faces that were slack at the iterate and
+//! wrinkled at the trial point: their excess over the quadratic model was the whole rise, the
+//! taut and wrinkled faces and the pressure followed the model to 10⁻¹¹ J. A slack face has no
+//! energy and so no Hessian: the step model does not see the stiffness the face takes on as soon
+//! as its largest principal Green strain e1 turns positive (the tension-field model's wrinkled
+//! state, `W = ½ Y e1²` per unit rest area), and the damping alone had to keep the step short of
+//! it.
+//!
+//! A wall is that face's energy in the step model, `½ A Y ⟨e1 + a·d⟩₊²` (A its rest area, `a`
+//! the gradient of e1 over the face's free dofs, d the step): one-sided, it lets the face go
+//! slacker or stretch up to its rest length freely and stiffens it past that. For a face in the
+//! model the step solves `(H + μM + A Y a aᵀ) d = −g − A Y e1 a`. The set of faces in the model
+//! is the one the previous step predicted to cross (`e1 + a·d > 0` along it, with its own set),
+//! lagged by one iteration, so that a step costs one factorization as before. Solving for the
+//! consistent set each step (semismooth Newton on the piecewise-quadratic model) took 2.7–4
+//! factorizations per iteration for 20–35% fewer iterations: slower (torus 2994 → 1915–2273
+//! iterations and 5233–6297 factorizations, bunny 2449 → 1954 and 8003). The energy and the
+//! gradient stay exact: only the step changes, and the line search still decides.
+//!
+//! The walls come into the model after [`crate::newton::CREEP_AFTER`] iterations (those of a
+//! creeping solve; every full fill measured converges before), from the start the torus filled
+//! to 0.1 m took 2713 iterations against 1543 after 200. Materials without a slack state
+//! ([`crate::material::Material::slack_wall_stiffness`] `None`) have none.
+
+use clothcast_mesh::sparse::SymmetricPattern;
+
+/// A slack face as a wall of Newton's step model ([`crate::system::System::slack_walls`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Wall {
+    /// The face (its index).
+    pub face: u32,
+    /// Its largest principal Green strain (≤ 0: slack).
+    pub e1: f64,
+    /// `A · Y` (N·m): its rest area times the stiffness it takes on in tension.
+    pub stiffness: f64,
+    /// Its corners' free dofs, corner-major (`u32::MAX`: constrained).
+    pub dofs: [u32; 9],
+    /// ∂e1/∂dof for each of them.
+    pub coef: [f64; 9],
+}
+
+impl Wall {
+    /// e1 linearized along the step `d` (on free dofs).
+    pub fn strain_along(&self, d: &[f64]) -> f64 {
+        self.e1
+            + self
+                .dofs
+                .iter()
+                .zip(&self.coef)
+                .filter(|(i, _)| **i != u32::MAX)
+                .map(|(i, c)| c * d[*i as usize])
+                .sum::<f64>()
+    }
+
+    /// Adds its term of the step model, `½ A Y (e1 + a·d)²`, to the step's system: `A Y a aᵀ`
+    /// to the matrix values (lower triangle of `pattern`) and `−A Y e1 a` to the right-hand
+    /// side.
+    pub fn add_to(&self, pattern: &SymmetricPattern, vals: &mut [f64], rhs: &mut [f64]) {
+        for i in 0..9 {
+            let di = self.dofs[i];
+            if di == u32::MAX {
+                continue;
+            }
+            rhs[di as usize] -= self.stiffness * self.e1 * self.coef[i];
+            // Each unordered pair once: the pattern stores one triangle.
+            for j in 0..=i {
+                let dj = self.dofs[j];
+                if dj == u32::MAX {
+                    continue;
+                }
+                if let Some(s) = pattern.find(di as usize, dj as usize) {
+                    vals[s] += self.stiffness * self.coef[i] * self.coef[j];
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_wall_adds_its_rank_one_term_and_offset() {
+        // Dofs 0..4 of a 4×4 dense pattern; corner 1 constrained, corner 2 with one free dof.
+        let pattern = SymmetricPattern::from_entries(4, (0..4).flat_map(|i| (0..=i).map(move |j| (i, j))));
+        let w = Wall {
+            face: 0,
+            e1: -0.01,
+            stiffness: 2.0,
+            dofs: [0, 1, 2, u32::MAX, u32::MAX, u32::MAX, 3, u32::MAX, u32::MAX],
+            coef: [0.5, -1.0, 0.25, 9.0, 9.0, 9.0, 2.0, 9.0, 9.0],
+        };
+        let mut vals = vec![0.0; pattern.nnz()];
+        let mut rhs = vec![1.0; 4];
+        w.add_to(&pattern, &mut vals, &mut rhs);
+        let a = [0.5, -1.0, 0.25, 2.0];
+        for i in 0..4 {
+            assert!((rhs[i] - (1.0 + 2.0 * 0.01 * a[i])).abs() < 1e-15);
+            for j in 0..=i {
+                assert!((vals[pattern.slot(i, j)] - 2.0 * a[i] * a[j]).abs() < 1e-15, "({i}, {j})");
+            }
+        }
+        let d = [0.1, 0.2, -0.4, 0.05];
+        let lin = -0.01 + a.iter().zip(&d).map(|(x, y)| x * y).sum::<f64>();
+        assert!((w.strain_along(&d) - lin).abs() < 1e-15);
+    }
+}
