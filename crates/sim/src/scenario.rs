@@ -381,6 +381,9 @@ impl Material for Scaled<'_> {
     fn exact_geometric_below(&self) -> f64 {
         self.inner.exact_geometric_below()
     }
+    fn slack_wall_stiffness(&self) -> Option<f64> {
+        self.inner.slack_wall_stiffness().map(|y| y * self.factor)
+    }
 }
 
 /// The equilibrium.

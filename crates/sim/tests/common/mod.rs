@@ -122,6 +122,9 @@ impl<M: clothcast_sim::material::Material> clothcast_sim::material::Material for
     fn exact_geometric_below(&self) -> f64 {
         self.exact_geometric_below.unwrap_or_else(|| self.inner.exact_geometric_below())
     }
+    fn slack_wall_stiffness(&self) -> Option<f64> {
+        self.inner.slack_wall_stiffness()
+    }
 }
 
 /// A closed mesh of the test data (`data/meshes/closed/NAME`), scaled to `height` metres along z.
