@@ -163,8 +163,7 @@ impl Element {
     pub fn largest_strain_gradient(&self, x: &[Vec3; 3]) -> (f64, [Vec3; 3]) {
         let k = self.kinematics(x);
         let e = k.strain;
-        let (e1, _) = sym2_eigenvalues(e[0], 0.5 * e[2], e[1]);
-        let th = sym2_angle(e[0], 0.5 * e[2], e[1]);
+        let (e1, _, th) = sym2_eigen(e[0], 0.5 * e[2], e[1]);
         let p = Vector2::new(th.cos(), th.sin());
         let fp = k.f[0] * p[0] + k.f[1] * p[1];
         (e1, [0, 1, 2].map(|a| fp * self.grad_n[a].dot(&p)))

@@ -839,7 +839,8 @@ pub fn solve(
         progress(&report);
         // For the log: the decrease achieved against the quadratic model's at the accepted
         // step length α (with (H + μM)d = −g, dᵀHd = −gᵀd − μdᵀMd, so the model's change is
-        // αgᵀd − ½α²(gᵀd + μdᵀMd)): how well the model held along the step.
+        // αgᵀd − ½α²(gᵀd + μdᵀMd)): how well the model held along the step. (A step with slack
+        // walls solves a system with their terms added, so there the ratio is approximate.)
         let model_ratio = if accepted > 0.0 && tracing::enabled!(tracing::Level::DEBUG) {
             let dd = damping.quadratic(sys.pattern(), &step);
             (accepted_energy - ev.energy) / (accepted * slope - 0.5 * accepted * accepted * (slope + mu * dd))

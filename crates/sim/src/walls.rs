@@ -3,10 +3,10 @@
 //! On a mold filled well below its top, the fabric above the liquid hangs slack or wrinkled and
 //! carries the liquid's weight to the clamps along wrinkled tension paths; Newton then creeps
 //! for thousands of iterations (SIMULATION_LOG, 2026-12-06 to 12-07). Traced on the torus
-//! filled to 0.1 m of 0.5 m (2026-12-07, twenty-ninth session), every full step the line search
-//! rejected in the creep rose in energy through the faces that were slack at the iterate and
-//! wrinkled at the trial point: their excess over the quadratic model was the whole rise, the
-//! taut and wrinkled faces and the pressure followed the model to 10⁻¹¹ J. A slack face has no
+//! filled to 0.1 m of 0.5 m (2026-12-07, twenty-ninth session, iterations 200–221), every full
+//! step the line search rejected rose in energy through the faces that were slack at the iterate
+//! and wrinkled at the trial point: their excess over the quadratic model was the whole rise,
+//! the taut and wrinkled faces and the pressure followed the model to 10⁻¹¹ J. A slack face has no
 //! energy and so no Hessian: the step model does not see the stiffness the face takes on as soon
 //! as its largest principal Green strain e1 turns positive (the tension-field model's wrinkled
 //! state, `W = ½ Y e1²` per unit rest area), and the damping alone had to keep the step short of
@@ -18,14 +18,15 @@
 //! model the step solves `(H + μM + A Y a aᵀ) d = −g − A Y e1 a`. The set of faces in the model
 //! is the one the previous step predicted to cross (`e1 + a·d > 0` along it, with its own set),
 //! lagged by one iteration, so that a step costs one factorization as before. Solving for the
-//! consistent set each step (semismooth Newton on the piecewise-quadratic model) took 2.7–4
-//! factorizations per iteration for 20–35% fewer iterations: slower (torus 2994 → 1915–2273
+//! consistent set each step (semismooth Newton on the piecewise-quadratic model) took 2.7–4.1
+//! factorizations per iteration for 20–36% fewer iterations: slower (torus 2994 → 1915–2273
 //! iterations and 5233–6297 factorizations, bunny 2449 → 1954 and 8003). The energy and the
 //! gradient stay exact: only the step changes, and the line search still decides.
 //!
 //! The walls come into the model after [`crate::newton::CREEP_AFTER`] iterations, those of a
-//! creeping solve (every full fill measured converges before): from the start, the torus filled
-//! to 0.1 m took 2713 iterations, against 1543 with the walls after 200 and 2994 without them.
+//! creeping solve (the full fills in the README's tables all converge within 200): from the
+//! start, the torus filled to 0.1 m took 2713 iterations, against 1543 with the walls after 200
+//! and 2994 without them.
 //! Over twelve partial fills at 0.5 m (torus, bunny, fertility, spot filled to 0.1, 0.25 and
 //! 0.35 m): 15844 → 10247 iterations, 45% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)

@@ -661,7 +661,7 @@ fn slivers_converge_to_their_round_off_floor_and_say_so() {
 /// creeping Newton step runs into stiffen the next step's model. Only the path changes: an
 /// upright torus 0.5 m tall (768 faces) filled to 0.05 m converges either way (480 iterations
 /// without the walls, 363 with them as measured), with the energy never rising, to the same
-/// wetted fabric and liquid (as measured, 4·10⁻¹² m apart; the dry fabric above, slack with
+/// wetted fabric and liquid (as measured, 3.5·10⁻¹² m apart; the dry fabric above, slack with
 /// many equilibria, up to 1.2 mm).
 #[test]
 fn slack_walls_change_the_path_of_a_partial_fill_not_its_wetted_equilibrium() {
