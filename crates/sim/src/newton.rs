@@ -593,10 +593,10 @@ pub fn solve(
         let mut vals = ev.hessian.expect("requested");
         let mut rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
         // A creeping solve: the slack faces the last step ran into are walls of this step's
-        // model (see crate::walls).
+        // model, those within WALL_GAP of their wall (see crate::walls).
         let walls = if opts.slack_walls && stats.iterations > CREEP_AFTER { sys.slack_walls(&x) } else { Vec::new() };
         let mut walled = 0;
-        for w in walls.iter().filter(|w| wall_next[w.face as usize]) {
+        for w in walls.iter().filter(|w| wall_next[w.face as usize] && w.within_gap()) {
             w.add_to(sys.pattern(), &mut vals, &mut rhs);
             walled += 1;
         }

@@ -26,15 +26,32 @@
 //! The walls come into the model after [`crate::newton::CREEP_AFTER`] iterations, those of a
 //! creeping solve (the full fills in the README's tables all converge within 200): from the
 //! start, the torus filled to 0.1 m took 2713 iterations, against 1543 with the walls after 200
-//! and 2994 without them.
+//! and 2994 without them. Only faces within [`WALL_GAP`] of their wall enter the model (the
+//! term is two-sided, see there): torus 1543 → 1436.
 //! Over twelve partial fills at 0.5 m (torus, bunny, fertility, spot filled to 0.1, 0.25 and
-//! 0.35 m): 15844 → 10247 iterations, 45% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
+//! 0.35 m): 15844 → 10268 iterations, 49% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)
 //! have none, and molds solved from the coarse start are solved without them
 //! ([`crate::scenario::simulate`]: kitten filled to a fifth had not converged after 65 minutes
-//! with them, against 17 without).
+//! with them, against 17 without; with the gap limit it no longer cycles, but it had not
+//! converged after 3098 fine iterations, against 3514 in all without walls).
 
 use clothcast_mesh::sparse::SymmetricPattern;
+
+/// How far from its wall a flagged slack face may be and still enter the step model: its
+/// largest principal Green strain above `−WALL_GAP`.
+///
+/// The wall's term is two-sided, `½ A Y (e1 + a·d)²`: a face the step leaves short of its wall
+/// (`e1 + a·d < 0` at the solution) is pulled toward it, a force the fabric does not have. The
+/// set lags one iteration, and after a shortened step the damping is four times higher, so the
+/// next step often stops short of faces the last one crossed. Traced on kitten filled to 0.1 m
+/// of 0.5 m (2026-12-07, thirtieth session, fine iterations 200–600), two of three walls pulled,
+/// from gaps of up to 5·10⁻³, and the solve fell into a cycle of period two: a step at the
+/// lower damping ran into 200–280 faces and was cut to 1.6–6·10⁻²; the next, at four times
+/// the damping and with 50–120 of them as walls, was taken whole; the damping went back down,
+/// and again. The damping stayed at 1.9–7.6·10⁻⁴ and the relative residual at 3·10⁻⁴ through
+/// iteration 1200. A face within 10⁻⁴ of its wall is pulled at most that far.
+pub const WALL_GAP: f64 = 1e-4;
 
 /// A slack face as a wall of Newton's step model ([`crate::system::System::slack_walls`]).
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +69,11 @@ pub struct Wall {
 }
 
 impl Wall {
+    /// Whether the face is near enough its wall to enter the step model ([`WALL_GAP`]).
+    pub fn within_gap(&self) -> bool {
+        self.e1 > -WALL_GAP
+    }
+
     /// e1 linearized along the step `d` (on free dofs).
     pub fn strain_along(&self, d: &[f64]) -> f64 {
         self.e1
@@ -113,6 +135,8 @@ mod tests {
                 assert!((vals[pattern.slot(i, j)] - 2.0 * a[i] * a[j]).abs() < 1e-15, "({i}, {j})");
             }
         }
+        assert!(!w.within_gap(), "a gap of 10⁻² is beyond WALL_GAP");
+        assert!(Wall { e1: -0.5 * WALL_GAP, ..w }.within_gap());
         let d = [0.1, 0.2, -0.4, 0.05];
         let lin = -0.01 + a.iter().zip(&d).map(|(x, y)| x * y).sum::<f64>();
         assert!((w.strain_along(&d) - lin).abs() < 1e-15);

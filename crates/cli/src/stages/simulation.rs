@@ -92,21 +92,21 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
         // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; torus,
         // bunny, fertility and spot (2026-12-06) filled to half their height or more in
-        // 147-1166 (2026-12-06, before CREEP_AFTER), filled to a fifth in 1333-2019 with the
+        // 147-1166 (2026-12-06, before CREEP_AFTER), filled to a fifth in 1211-1961 with the
         // slack walls (2026-12-07; 1520-4460 before), and with the fabric's weight torus and
-        // bunny in 730 and 532 against 1543 and 1333 (README).
+        // bunny in 547 and 473 against 1436 and 1211 (README).
         let weight = if self_weight {
             ""
         } else {
             "; on some molds so does the fabric's weight, which holds that fabric ([material] self_weight = true: \
-             filled to a fifth of their height, torus and bunny converged in 730 and 532 iterations with it against \
-             1543 and 1333 without, fertility 955 against 1366, spot 4592 against 2019)"
+             filled to a fifth of their height, torus and bunny converged in 547 and 473 iterations with it against \
+             1436 and 1211 without, fertility 1082 against 1244, spot 1218 against 1961)"
         };
         out += &format!(
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
              fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
-             within 1200, filled to a fifth within 1300-5600, kitten's 53k vertices in 3514 taking 17 minutes, \
+             within 1200, filled to a fifth within 1200-5600, kitten's 53k vertices in 3514 taking 17 minutes, \
              bunny_hr's 30k in 5548 taking 12; this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
             suggested_iterations(s.max_iterations, true)
@@ -116,8 +116,8 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
 }
 
 /// The iterations a partial fill's message suggests at least: molds filled to a fifth of
-/// their height converged in 1333-5548 (measured on 2026-12-06 and 07 at 0.5 m filled to
-/// 0.1 m: with the slack walls fertility 1366, bunny 1333, torus 1543, spot 2019 (before them
+/// their height converged in 1211-5548 (measured on 2026-12-06 and 07 at 0.5 m filled to
+/// 0.1 m: with the slack walls fertility 1244, bunny 1211, torus 1436, spot 1961 (before them
 /// 1520, 2449, 2994, 4460); without them, from the coarse start, kitten 3514 in 17 minutes and
 /// bunny_hr 5548 in 12 from their coarse levels, 5678 and 5617 when the levels were allowed
 /// only 200), more than twice the limits of spot (1734), kitten and bunny_hr (1000) (4000
