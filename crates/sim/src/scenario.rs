@@ -732,8 +732,9 @@ fn simulate_with_rest(
     // Slack walls (crate::walls) only on molds solved without the coarse start, where they were
     // measured: on kitten filled to a fifth (0.1 m of 0.5 m, 8000 allowed) the solve with them had
     // not finished after 65 minutes, against 17 without (2026-12-07; a cycle of the damping, see
-    // walls::WALL_GAP); with the gap limit, 3098 fine iterations left it unconverged, against
-    // 3514 in all without walls, and bunny_hr 7108, against 5548: no gain on these molds.
+    // walls::WALL_GAP); with the gap limit it was still unconverged when stopped after 3098 fine
+    // iterations, against 3514 in all without walls, and bunny_hr after 7108, against 5548: no
+    // gain on these molds.
     let newton = NewtonOptions { slack_walls: sc.newton.slack_walls && uses_coarse.is_none(), ..sc.newton.clone() };
     let coarse_for = |mat: &dyn Material, start: &[Vec3]| {
         uses_coarse.map(|co| {

@@ -46,12 +46,13 @@ use clothcast_mesh::sparse::SymmetricPattern;
 /// (`e1 + a·d < 0` at the solution) is pulled toward it, a force the fabric does not have. The
 /// set lags one iteration, and after a shortened step the damping is four times higher, so the
 /// next step often stops short of faces the last one crossed. Traced on kitten filled to 0.1 m
-/// of 0.5 m (2026-12-07, thirtieth session, fine iterations 200–600), two of three walls pulled,
-/// from gaps of up to 5·10⁻³, and the solve fell into a cycle of period two: a step at the
-/// lower damping ran into 200–280 faces and was cut to 1.6–6·10⁻²; the next, at four times
-/// the damping and with 50–120 of them as walls, was taken whole; the damping went back down,
-/// and again. The damping stayed at 1.9–7.6·10⁻⁴ and the relative residual at 3·10⁻⁴ through
-/// iteration 1200. A face within 10⁻⁴ of its wall is pulled at most that far.
+/// of 0.5 m (2026-12-07, thirtieth session, fine iterations 200–1167), two of three walls
+/// pulled, from gaps of up to 5·10⁻³, and the solve fell into a cycle of period two: a step at
+/// the lower damping ran into 140–280 faces and was cut, mostly to 1.6–6·10⁻²; the next, at
+/// four times the damping and with 49–123 of them as walls, was taken whole; the damping went
+/// back down, and again. The damping stayed at 1.9–7.6·10⁻⁴ and the relative residual's median
+/// at 2.5–2.9·10⁻⁴ over iterations 400–1000. A face within 10⁻⁴ of its wall is pulled at most
+/// that far (SIMULATION_LOG, thirtieth session).
 pub const WALL_GAP: f64 = 1e-4;
 
 /// A slack face as a wall of Newton's step model ([`crate::system::System::slack_walls`]).
