@@ -274,9 +274,11 @@ impl DampingMatrix {
 /// direct solve). Where the single-precision factorization fails (a pivot lost to round-off,
 /// or a matrix not positive definite at that damping) or does not precondition well enough,
 /// that step falls back to double precision; after [`SINGLE_MAX_POOR`] poorly preconditioned
-/// steps the whole solve goes on in double precision. A failure is told from indefiniteness by
+/// steps, or [`SINGLE_MAX_LOST_PIVOTS`] lost pivots, the whole solve goes on in double
+/// precision. A failure is told from indefiniteness by
 /// that double-precision factorization only until [`SINGLE_TRUST_AFTER`] have found the
-/// matrix indefinite (and none a lost pivot); later failures raise the damping at once.
+/// matrix indefinite (and none a lost pivot); later failures raise the damping at once, but
+/// for one in [`SINGLE_RECHECK_EVERY`], confirmed again.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FactorPrecision {
@@ -326,6 +328,18 @@ const SINGLE_PCG_MAX_ITER: usize = 20;
 /// on in double precision.
 pub const SINGLE_MAX_POOR: usize = 2;
 
+/// Pivots lost in single precision (the double-precision factorization of the same matrix
+/// succeeded) after which the solve goes on in double precision. Each costs a wasted
+/// single-precision factorization, about two thirds of a double-precision one. The full fills
+/// lose none (kitten, bunny_hr, spot, camelhead at 0.5 m), but a partial fill's creep loses one at
+/// every other step or so, when the damping is low against the taut fabric's stiffness: spot
+/// filled to 0.1 m of 0.5 m lost 1053 in 1961 iterations (3439 factorizations, 232.8 s), and with
+/// this limit took 1986 iterations, 2003 factorizations and 197.0 s (2026-12-07, thirty-first
+/// session, both runs beside the same other solve); bunny_hr filled to 0.1 m (walls on its
+/// coarse levels, an experiment) lost 3678 in 6356 iterations, and with this limit took 5980
+/// iterations and 5988 factorizations.
+pub const SINGLE_MAX_LOST_PIVOTS: usize = 8;
+
 /// Single-precision failures confirmed as indefiniteness by a double-precision factorization
 /// (and none found to be a lost pivot) after which a single-precision failure is taken as
 /// indefiniteness at once. The check's solve (woven fabric, exact geometric term: compressed
@@ -333,6 +347,16 @@ pub const SINGLE_MAX_POOR: usize = 2;
 /// step: kitten's check made 45 double-precision confirmations, each about twice a
 /// single-precision factorization's time, none of them a lost pivot.
 pub const SINGLE_TRUST_AFTER: usize = 2;
+
+/// Once [`SINGLE_TRUST_AFTER`] confirmations have let single-precision failures be taken as
+/// indefiniteness at once, one in this many is still confirmed by a double-precision
+/// factorization, and a lost pivot found so ends the trust. Without it, kitten filled to 0.1 m
+/// of 0.5 m (8000 allowed) met two indefinite matrices early and then took every later failure
+/// as indefiniteness, raising the damping tenfold each time; confirmed one by one, 1308 of its
+/// 1310 failures were lost pivots, and the solve took 3032 fine iterations instead of 3514.
+/// With this recheck (and [`SINGLE_MAX_LOST_PIVOTS`]) it took 3082 and 3101 factorizations
+/// (4591 before; 2026-12-07, thirty-first session).
+pub const SINGLE_RECHECK_EVERY: usize = 8;
 
 /// One iteration, for logs and tests.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -402,7 +426,8 @@ pub struct SolveStats {
     /// Of those: a value out of single precision's range.
     pub single_fallbacks_range: usize,
     /// Of those: a pivot lost in single precision where the double-precision factorization of
-    /// the same matrix succeeded (round-off).
+    /// the same matrix succeeded (round-off). After [`SINGLE_MAX_LOST_PIVOTS`] the solve goes on
+    /// in double precision.
     pub single_fallbacks_pivot: usize,
     /// Of those: a pivot lost in single precision where the double-precision factorization
     /// failed too (the matrix was not positive definite at that damping). The raised
@@ -414,9 +439,9 @@ pub struct SolveStats {
     pub single_fallbacks_poor: usize,
     /// Single-precision factorizations that failed and were taken as the matrix's
     /// indefiniteness at that damping without a double-precision factorization (the damping
-    /// raised at once): those after a confirmation in the same step, and every one once
+    /// raised at once): those after a confirmation in the same step, and, once
     /// [`SINGLE_TRUST_AFTER`] confirmations have been made in the solve and no failure was a
-    /// lost pivot.
+    /// lost pivot, all but one in [`SINGLE_RECHECK_EVERY`].
     pub single_indefinite_unconfirmed: usize,
     /// Trial steps whose overshooting vertices were relaxed ([`crate::relax`]).
     pub relaxations: usize,
@@ -537,6 +562,9 @@ pub fn solve(
     };
     stats.single_precision = use_single;
     let mut poor_preconditioner = 0usize;
+    // Single-precision failures taken as indefiniteness since the last double-precision
+    // confirmation (see SINGLE_RECHECK_EVERY).
+    let mut unconfirmed_since_check = 0usize;
     let mut pcg_promising = false;
     // Per-face energies at the iterate (from its evaluation, once per iteration, when a
     // relaxation needs them) and at a trial point.
@@ -644,9 +672,11 @@ pub fn solve(
             // to single precision, where a failure is then taken as the same indefiniteness
             // (no second double-precision factorization to tell it from a lost pivot).
             // After SINGLE_TRUST_AFTER confirmations, and none of the failures a lost pivot, a
-            // single-precision failure is taken as that indefiniteness from the start.
-            let mut indefinite =
-                stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER && stats.single_fallbacks_pivot == 0;
+            // single-precision failure is taken as that indefiniteness from the start, but for
+            // one in SINGLE_RECHECK_EVERY, which is confirmed again (a lost pivot ends the trust).
+            let mut indefinite = stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER
+                && stats.single_fallbacks_pivot == 0
+                && unconfirmed_since_check + 1 < SINGLE_RECHECK_EVERY;
             // Set by that confirmation: the next damping raise returns to single precision
             // (once; a later fallback for range or a poor factor keeps double for the step).
             let mut back_to_single = false;
@@ -663,8 +693,17 @@ pub fn solve(
                         factor_times.push(dt);
                     }
                     if std::mem::take(&mut lost_single_pivot) {
+                        unconfirmed_since_check = 0;
                         match res {
-                            Ok(()) => stats.single_fallbacks_pivot += 1,
+                            Ok(()) => {
+                                stats.single_fallbacks_pivot += 1;
+                                if stats.single_fallbacks_pivot >= SINGLE_MAX_LOST_PIVOTS {
+                                    tracing::debug!(
+                                        "pivots lost in single precision again and again; double precision"
+                                    );
+                                    use_single = false;
+                                }
+                            }
                             Err(SolveError::NotPositiveDefinite { .. }) => {
                                 stats.single_fallbacks_indefinite += 1;
                                 indefinite = true;
@@ -677,6 +716,7 @@ pub fn solve(
                         Ok(()) => break true,
                         Err(SolveError::NotPositiveDefinite { .. }) if !single || indefinite => {
                             stats.single_indefinite_unconfirmed += usize::from(single);
+                            unconfirmed_since_check += usize::from(single);
                             mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
                             if mu > 1e12 {
                                 break false;

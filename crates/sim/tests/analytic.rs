@@ -689,12 +689,50 @@ fn slack_walls_change_the_path_of_a_partial_fill_not_its_wetted_equilibrium() {
         walled.stats.newton_iterations,
         plain.stats.newton_iterations
     );
-    let wetted_gap = mesh
-        .vertices()
-        .filter(|&v| mesh.position(v).z < 0.05)
-        .map(|v| (plain.positions[v] - walled.positions[v]).norm())
-        .fold(0.0, f64::max);
+    let wetted_gap = wetted_gap(&mesh, &plain, &walled, 0.05);
     assert!(wetted_gap < 1e-8, "the wetted fabric {wetted_gap} m apart");
     let dv = (plain.stats.liquid_volume_m3 - walled.stats.liquid_volume_m3).abs();
     assert!(dv < 1e-9 * plain.stats.liquid_volume_m3, "liquid {dv} m³ apart");
+}
+
+/// A partial fill's creep (the torus of the test above, filled to 0.05 m) with the damping low
+/// against the taut fabric's stiffness: single-precision factorizations lose pivots that the
+/// double-precision factorization of the same matrix keeps. After
+/// [`clothcast_sim::newton::SINGLE_MAX_LOST_PIVOTS`] of them the solve goes on in double
+/// precision (no single-precision factorization wasted after that), to the wetted equilibrium
+/// of the double-precision solve.
+#[test]
+fn lost_single_precision_pivots_turn_the_solve_to_double_precision() {
+    use clothcast_sim::newton::{FactorPrecision, SINGLE_MAX_LOST_PIVOTS};
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mut mesh = shapes::torus(0.17, 0.08, 32, 12);
+    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
+    let run = |factor_precision| {
+        let sc = Scenario {
+            fill_level: FillLevel::Height(0.05),
+            newton: NewtonOptions { max_iterations: 3000, factor_precision, ..Default::default() },
+            ..Default::default()
+        };
+        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+        assert!(r.stats.converged, "{factor_precision:?}: {:?}", r.stats.termination);
+        common::assert_energy_never_rises(&r.history);
+        r
+    };
+    let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
+    let st = &s.stats.solver;
+    // No single-precision failure after the last lost pivot: the steps from there on are
+    // factored in double precision.
+    assert_eq!(st.single_fallbacks_pivot, SINGLE_MAX_LOST_PIVOTS, "{st:?}");
+    assert_eq!(st.single_fallbacks, st.single_fallbacks_pivot, "{st:?}");
+    assert!(st.double_factorizations > 2 * SINGLE_MAX_LOST_PIVOTS, "{st:?}");
+    let wetted_gap = wetted_gap(&mesh, &d, &s, 0.05);
+    assert!(wetted_gap < 1e-8, "the wetted fabric {wetted_gap} m apart");
+}
+
+/// The largest distance between two equilibria's positions of the vertices below `level` (m).
+fn wetted_gap(mesh: &Mesh, a: &SimResult, b: &SimResult, level: f64) -> f64 {
+    mesh.vertices()
+        .filter(|&v| mesh.position(v).z < level)
+        .map(|v| (a.positions[v] - b.positions[v]).norm())
+        .fold(0.0, f64::max)
 }
