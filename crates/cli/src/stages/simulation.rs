@@ -92,7 +92,7 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
         // Measured on closed meshes filled to 20-70% of their height: 200 iterations without
         // converging (8 of 9 solves); with 100 Pa of head pressure all 15 in 20-161; torus,
         // bunny, fertility and spot (2026-12-06) filled to half their height or more in
-        // 147-1166 (2026-12-06, before CREEP_AFTER), filled to a fifth in 1211-1961 with the
+        // 147-1166 (2026-12-06, before CREEP_AFTER), filled to a fifth in 1211-1986 with the
         // slack walls (2026-12-07; 1520-4460 before), and with the fabric's weight torus and
         // bunny in 547 and 473 against 1436 and 1211 (README).
         let weight = if self_weight {
@@ -106,8 +106,8 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
             "; fabric above the liquid carries no load of its own (it hangs slack or wrinkled, its shape barely \
              determined, and Newton creeps there): a small [infill] head_pressure (100 Pa keeps it taut) or a higher \
              fill_level helps{weight}; or more iterations (molds filled to half their height or more have converged \
-             within 1200, filled to a fifth within 1200-5600, kitten's 53k vertices in 3514 taking 17 minutes, \
-             bunny_hr's 30k in 5548 taking 12; this solve was allowed {}: [solver] max_iterations = {})",
+             within 1200, filled to a fifth within 1200-6000, kitten's 53k vertices in 3082 (3514 took 17 \
+             minutes), bunny_hr's 30k in 5980 (5548 took 12); this solve was allowed {}: [solver] max_iterations = {})",
             s.max_iterations,
             suggested_iterations(s.max_iterations, true)
         );
@@ -116,10 +116,11 @@ fn residual_site(s: &clothcast_sim::SimStats, input: &Input, self_weight: bool) 
 }
 
 /// The iterations a partial fill's message suggests at least: molds filled to a fifth of
-/// their height converged in 1211-5548 (measured on 2026-12-06 and 07 at 0.5 m filled to
-/// 0.1 m: with the slack walls fertility 1244, bunny 1211, torus 1436, spot 1961 (before them
-/// 1520, 2449, 2994, 4460); without them, from the coarse start, kitten 3514 in 17 minutes and
-/// bunny_hr 5548 in 12 from their coarse levels, 5678 and 5617 when the levels were allowed
+/// their height converged in 1211-5980 (measured on 2026-12-06 and 07 at 0.5 m filled to
+/// 0.1 m: with the slack walls fertility 1244, bunny 1211, torus 1436, spot 1986 (1961 before
+/// the double-precision switch after lost pivots; before the walls 1520, 2449, 2994, 4460);
+/// without them, from the coarse start, kitten 3082 and bunny_hr 5980 from their coarse
+/// levels (3514 in 17 minutes and 5548 in 12 before that switch), 5678 and 5617 when the levels were allowed
 /// only 200), more than twice the limits of spot (1734), kitten and bunny_hr (1000) (4000
 /// and 3000).
 const PARTIAL_FILL_ITERATIONS: usize = 8000;
