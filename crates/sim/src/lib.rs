@@ -40,6 +40,7 @@ pub mod hydrostatic;
 pub mod loads;
 pub mod material;
 pub mod newton;
+mod precision;
 pub mod relax;
 pub mod scenario;
 pub mod system;

@@ -39,6 +39,7 @@
 //! f_ext on the free degrees of freedom, the internal forces f_int over all vertices
 //! (reactions included, so that a displacement-driven problem without load has a scale).
 
+use crate::precision::{Factored, Next, Precision};
 use crate::system::System;
 use clothcast_mesh::Vec3;
 use clothcast_mesh::sparse::{CholeskyFactor, CholeskySolver, FactorScalar, SolveError, SymmetricPattern};
@@ -443,6 +444,9 @@ pub struct SolveStats {
     /// [`SINGLE_TRUST_AFTER`] confirmations have been made in the solve and no failure was a
     /// lost pivot, all but one in [`SINGLE_RECHECK_EVERY`].
     pub single_indefinite_unconfirmed: usize,
+    /// Whether one of those rechecks found a lost pivot, which ended the trust (from then on
+    /// every single-precision failure is confirmed in double precision again).
+    pub single_trust_ended: bool,
     /// Trial steps whose overshooting vertices were relaxed ([`crate::relax`]).
     pub relaxations: usize,
     /// Steps accepted after a relaxation.
@@ -455,6 +459,9 @@ pub struct SolveStats {
     pub wall_steps: usize,
     /// Slack walls over those steps.
     pub wall_faces: usize,
+    /// Slack faces the last step ran into that were left out of the model, further than
+    /// [`crate::walls::WALL_GAP`] from their wall.
+    pub wall_faces_beyond_gap: usize,
     /// Final relative residual.
     pub residual_rel: f64,
     /// Set when the solve stopped above the tolerance because the residual had reached its
@@ -555,16 +562,14 @@ pub fn solve(
     let mut failures = 0usize;
     let mut trial = vec![Vec3::zeros(); x.len()];
     let mut factor = Factors::default();
-    let mut use_single = match opts.factor_precision {
+    let use_single = match opts.factor_precision {
         FactorPrecision::Double => false,
         FactorPrecision::Single => true,
         FactorPrecision::Auto => chol.factor_len() >= SINGLE_MIN_FACTOR_LEN,
     };
     stats.single_precision = use_single;
-    let mut poor_preconditioner = 0usize;
-    // Single-precision failures taken as indefiniteness since the last double-precision
-    // confirmation (see SINGLE_RECHECK_EVERY).
-    let mut unconfirmed_since_check = 0usize;
+    // Which precision each factorization takes (crate::precision).
+    let mut precision = Precision::new(use_single);
     let mut pcg_promising = false;
     // Per-face energies at the iterate (from its evaluation, once per iteration, when a
     // relaxation needs them) and at a trial point.
@@ -624,9 +629,13 @@ pub fn solve(
         // model, those within WALL_GAP of their wall (see crate::walls).
         let walls = if opts.slack_walls && stats.iterations > CREEP_AFTER { sys.slack_walls(&x) } else { Vec::new() };
         let mut walled = 0;
-        for w in walls.iter().filter(|w| wall_next[w.face as usize] && w.within_gap()) {
-            w.add_to(sys.pattern(), &mut vals, &mut rhs);
-            walled += 1;
+        for w in walls.iter().filter(|w| wall_next[w.face as usize]) {
+            if w.within_gap() {
+                w.add_to(sys.pattern(), &mut vals, &mut rhs);
+                walled += 1;
+            } else {
+                stats.wall_faces_beyond_gap += 1;
+            }
         }
         if walled > 0 {
             stats.wall_steps += 1;
@@ -663,86 +672,38 @@ pub fn solve(
         };
         stats.solve_seconds += ts.elapsed().as_secs_f64();
         if !reused {
-            let mut single = use_single;
-            // A single-precision pivot lost, not yet told from indefiniteness by the double
-            // factorization of the same matrix.
-            let mut lost_single_pivot = false;
-            // The double-precision factorization confirmed that the matrix is not positive
-            // definite at this step's damping: the damping is raised, and the retries go back
-            // to single precision, where a failure is then taken as the same indefiniteness
-            // (no second double-precision factorization to tell it from a lost pivot).
-            // After SINGLE_TRUST_AFTER confirmations, and none of the failures a lost pivot, a
-            // single-precision failure is taken as that indefiniteness from the start, but for
-            // one in SINGLE_RECHECK_EVERY, which is confirmed again (a lost pivot ends the trust).
-            let mut indefinite = stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER
-                && stats.single_fallbacks_pivot == 0
-                && unconfirmed_since_check + 1 < SINGLE_RECHECK_EVERY;
-            // Set by that confirmation: the next damping raise returns to single precision
-            // (once; a later fallback for range or a poor factor keeps double for the step).
-            let mut back_to_single = false;
+            let mut step_precision = precision.step(&stats);
             // Factor H + μM, raising μ until positive definite (reusing the factor's buffers).
             let ok = 'outer: loop {
                 let ok = loop {
+                    let single = step_precision.single;
                     let tf = Instant::now();
                     let res = factor.refactor(&chol, sys.pattern(), &vals, single);
                     let dt = tf.elapsed().as_secs_f64();
                     stats.factorizations += 1;
                     stats.double_factorizations += usize::from(!single);
                     stats.factorization_seconds += dt;
-                    if res.is_ok() {
-                        factor_times.push(dt);
-                    }
-                    if std::mem::take(&mut lost_single_pivot) {
-                        unconfirmed_since_check = 0;
-                        match res {
-                            Ok(()) => {
-                                stats.single_fallbacks_pivot += 1;
-                                if stats.single_fallbacks_pivot >= SINGLE_MAX_LOST_PIVOTS {
-                                    tracing::debug!(
-                                        "pivots lost in single precision again and again; double precision"
-                                    );
-                                    use_single = false;
-                                }
-                            }
-                            Err(SolveError::NotPositiveDefinite { .. }) => {
-                                stats.single_fallbacks_indefinite += 1;
-                                indefinite = true;
-                                back_to_single = true;
-                            }
-                            Err(_) => {}
+                    let outcome = match &res {
+                        Ok(()) => {
+                            factor_times.push(dt);
+                            Factored::Ok
                         }
-                    }
-                    match res {
-                        Ok(()) => break true,
-                        Err(SolveError::NotPositiveDefinite { .. }) if !single || indefinite => {
-                            stats.single_indefinite_unconfirmed += usize::from(single);
-                            unconfirmed_since_check += usize::from(single);
+                        Err(SolveError::NotPositiveDefinite { .. }) => Factored::NotPositiveDefinite,
+                        Err(SolveError::OutOfRange { .. }) => Factored::OutOfRange,
+                        Err(_) => Factored::Other,
+                    };
+                    match precision.factored(&mut step_precision, outcome, &mut stats) {
+                        Next::Solve => break true,
+                        Next::RaiseDamping => {
                             mu = if mu == 0.0 { 1e-8 } else { mu * 10.0 };
                             if mu > 1e12 {
                                 break false;
                             }
                             damping.restore(&mut vals, &base);
                             damping.add(&mut vals, mu);
-                            if std::mem::take(&mut back_to_single) {
-                                single = use_single;
-                            }
                         }
-                        // A pivot lost in single precision, or a value out of its range:
-                        // this step in double precision, at the same damping (the damping
-                        // path stays that of the direct solve until a double factorization
-                        // has confirmed the step's matrix indefinite; after that a
-                        // single-precision failure is taken as the same indefiniteness).
-                        Err(ref e @ (SolveError::NotPositiveDefinite { .. } | SolveError::OutOfRange { .. }))
-                            if single =>
-                        {
-                            stats.single_fallbacks += 1;
-                            match e {
-                                SolveError::OutOfRange { .. } => stats.single_fallbacks_range += 1,
-                                _ => lost_single_pivot = true,
-                            }
-                            single = false;
-                        }
-                        Err(e) => return Err(e),
+                        Next::Refactor => {}
+                        Next::Fail => return Err(res.expect_err("a failed factorization")),
                     }
                 };
                 if !ok {
@@ -750,7 +711,7 @@ pub fn solve(
                 }
                 let ts = Instant::now();
                 let f = &factor;
-                if single {
+                if step_precision.single {
                     let tol = opts.single_step_tolerance.min(r) * gnorm;
                     let res = pcg(
                         sys.pattern(),
@@ -769,16 +730,7 @@ pub fn solve(
                         }
                         Err(k) => {
                             stats.pcg_iterations += k;
-                            stats.single_fallbacks += 1;
-                            stats.single_fallbacks_poor += 1;
-                            poor_preconditioner += 1;
-                            tracing::debug!("single-precision factor not accurate enough; double precision");
-                            single = false;
-                            // Ill-conditioned beyond single precision: stop paying for the
-                            // wasted iterations.
-                            if poor_preconditioner >= SINGLE_MAX_POOR {
-                                use_single = false;
-                            }
+                            precision.poorly_preconditioned(&mut step_precision, &mut stats);
                             continue 'outer;
                         }
                     }
