@@ -550,7 +550,13 @@ fn solve_from_coarse(
     progress: &mut dyn FnMut(&IterationReport),
 ) -> Result<NewtonResult, SolveError> {
     let t = Instant::now();
-    let res = solve(sys, x, opts, progress);
+    // Without slack walls (crate::walls) from the coarse start: on kitten filled to a fifth (0.1 m
+    // of 0.5 m, 8000 allowed) the solve with them had not finished after 65 minutes, against 17
+    // without (2026-12-07; a cycle of the damping, see walls::WALL_GAP); with the gap limit it
+    // was still unconverged when stopped after 3098 fine iterations, against 3514 in all without
+    // walls, and bunny_hr after 7108, against 5548: no gain on these molds. (Solved again from
+    // the target, below, it has them as configured.)
+    let res = solve(sys, x, &NewtonOptions { slack_walls: false, ..opts.clone() }, progress);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;
@@ -729,13 +735,6 @@ fn simulate_with_rest(
     let uses_coarse = sc
         .coarse
         .filter(|co| rest.is_none() && material.is_uniform() && mesh.n_faces() >= co.min_faces && co.ratio >= 2);
-    // Slack walls (crate::walls) only on molds solved without the coarse start, where they were
-    // measured: on kitten filled to a fifth (0.1 m of 0.5 m, 8000 allowed) the solve with them had
-    // not finished after 65 minutes, against 17 without (2026-12-07; a cycle of the damping, see
-    // walls::WALL_GAP); with the gap limit it was still unconverged when stopped after 3098 fine
-    // iterations, against 3514 in all without walls, and bunny_hr after 7108, against 5548: no
-    // gain on these molds.
-    let newton = NewtonOptions { slack_walls: sc.newton.slack_walls && uses_coarse.is_none(), ..sc.newton.clone() };
     let coarse_for = |mat: &dyn Material, start: &[Vec3]| {
         uses_coarse.map(|co| {
             let pb = Problem {
@@ -746,15 +745,15 @@ fn simulate_with_rest(
                 supports: &sc.supports,
                 start,
                 barrier,
-                opts: &newton,
+                opts: &sc.newton,
             };
             coarse_start(&pb, co.ratio)
         })
     };
     // Each solve may take the iterations the ones before it left.
     let left = |used: usize| NewtonOptions {
-        max_iterations: newton.max_iterations.saturating_sub(used).max(1),
-        ..newton.clone()
+        max_iterations: sc.newton.max_iterations.saturating_sub(used).max(1),
+        ..sc.newton.clone()
     };
     let mut coarse = None;
     for &factor in stages.iter().filter(|&&f| f < 1.0) {

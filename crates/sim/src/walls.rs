@@ -31,11 +31,12 @@
 //! Over twelve partial fills at 0.5 m (torus, bunny, fertility, spot filled to 0.1, 0.25 and
 //! 0.35 m): 15844 → 10268 iterations, 49% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)
-//! have none, and molds solved from the coarse start are solved without them
-//! ([`crate::scenario::simulate`]: kitten filled to a fifth had not converged after 65 minutes
-//! with them, against 17 without; with the gap limit it no longer cycles, but it had not
-//! converged after 3098 fine iterations, against 3514 in all without walls, nor bunny_hr after
-//! 7108, against 5548).
+//! have none, and the coarse start's solves have none: its levels ([`crate::coarse`]) and the
+//! fine solve from it (`scenario::solve_from_coarse`: kitten filled to a fifth had not
+//! converged after 65 minutes with them, against 17 without; with the gap limit it no longer
+//! cycles, but it had not converged after 3098 fine iterations, against 3514 in all without
+//! walls, nor bunny_hr after 7108, against 5548). A mold whose coarse start is not used is
+//! solved from the target with them, as a later stiffness stage is from the stage before.
 
 use clothcast_mesh::sparse::SymmetricPattern;
 

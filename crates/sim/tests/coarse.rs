@@ -169,3 +169,31 @@ fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
     let gap = max_gap(c.positions.as_slice(), p.positions.as_slice());
     assert!(gap <= 1e-6 * p.stats.max_displacement_m, "equilibria {gap} m apart");
 }
+
+/// Molds solved from the coarse start are solved without the slack walls (`clothcast_sim::walls`;
+/// on kitten and bunny_hr filled to a fifth the walls gave no gain, see `scenario::simulate`):
+/// an upright torus of 1536 faces filled to 0.12 m of 0.5 m creeps past
+/// [`clothcast_sim::newton::CREEP_AFTER`] either way, with walls in its steps from the
+/// target, none from the coarse start.
+#[test]
+fn molds_solved_from_the_coarse_start_have_no_slack_walls() {
+    use clothcast_sim::newton::CREEP_AFTER;
+    let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
+    let mut mesh = shapes::torus(0.17, 0.08, 48, 16);
+    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
+    let sc = Scenario {
+        fill_level: FillLevel::Height(0.12),
+        newton: NewtonOptions { max_iterations: 3000, ..Default::default() },
+        ..Default::default()
+    };
+    // A coarse copy of 768 faces (SMALL's ratio would leave too few).
+    let half = CoarseOptions { min_faces: 1000, ratio: 2 };
+    let coarse = simulate(&mesh, &mat, &Scenario { coarse: Some(half), ..sc.clone() }, &mut |_| {}).unwrap();
+    let plain = simulate(&mesh, &mat, &Scenario { coarse: None, ..sc }, &mut |_| {}).unwrap();
+    for r in [&coarse, &plain] {
+        assert!(r.stats.converged && r.stats.newton_iterations > CREEP_AFTER, "{:?}", r.stats.solver);
+    }
+    assert!(coarse.stats.coarse_start.as_ref().is_some_and(|c| c.used), "{:?}", coarse.stats.coarse_start);
+    assert_eq!(coarse.stats.solver.wall_steps, 0, "{:?}", coarse.stats.solver);
+    assert!(plain.stats.solver.wall_steps > 0, "{:?}", plain.stats.solver);
+}
