@@ -459,8 +459,8 @@ pub struct SolveStats {
     pub wall_steps: usize,
     /// Slack walls over those steps.
     pub wall_faces: usize,
-    /// Slack faces the last step ran into that were left out of the model, further than
-    /// [`crate::walls::WALL_GAP`] from their wall.
+    /// Slack faces a step ran into that the next step's model left out, further than
+    /// [`crate::walls::WALL_GAP`] from their wall, over all steps.
     pub wall_faces_beyond_gap: usize,
     /// Final relative residual.
     pub residual_rel: f64,

@@ -256,8 +256,10 @@ mod tests {
             run_step(&mut p, &mut stats, &CONFIRMED);
         }
         assert!(!p.trusted(&stats));
-        // (Not the end of a trust that never began.)
+        // A later lost pivot is not the end of a trust that never began.
+        run_step(&mut p, &mut stats, &LOST);
         assert!(!stats.single_trust_ended);
+        assert_eq!(stats.single_fallbacks_pivot, 2);
     }
 
     #[test]

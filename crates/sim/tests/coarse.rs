@@ -171,7 +171,7 @@ fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
 }
 
 /// Molds solved from the coarse start are solved without the slack walls (`clothcast_sim::walls`;
-/// on kitten and bunny_hr filled to a fifth the walls gave no gain, see `scenario::simulate`):
+/// on kitten and bunny_hr filled to a fifth the walls gave no gain, see `scenario::solve_from_coarse`):
 /// an upright torus of 1536 faces filled to 0.12 m of 0.5 m creeps past
 /// [`clothcast_sim::newton::CREEP_AFTER`] either way, with walls in its steps from the
 /// target, none from the coarse start.
