@@ -137,7 +137,8 @@ pub struct NewtonOptions {
     /// [`SEWN_STEP_TOLERANCE`] for the check's solve.
     pub single_step_tolerance: f64,
     /// After [`CREEP_AFTER`] iterations, the slack faces the last step ran into enter the next
-    /// step's model as one-sided walls ([`crate::walls`]; materials with a slack state only).
+    /// step's model as walls ([`crate::walls`]: the stiffness they take on past their rest
+    /// length, within [`crate::walls::WALL_GAP`] of it; materials with a slack state only).
     pub slack_walls: bool,
 }
 
