@@ -88,12 +88,17 @@ impl Precision {
         self.use_single
     }
 
+    /// Whether the solve has earned the trust: [`SINGLE_TRUST_AFTER`] confirmations, and no
+    /// failure a lost pivot.
+    fn trust_earned(stats: &SolveStats) -> bool {
+        stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER && stats.single_fallbacks_pivot == 0
+    }
+
     /// Whether single-precision failures are taken as indefiniteness without a
-    /// double-precision factorization, at the start of the next step.
+    /// double-precision factorization, at the start of the next step: under the trust, but for
+    /// the recheck of one in [`SINGLE_RECHECK_EVERY`].
     pub fn trusted(&self, stats: &SolveStats) -> bool {
-        stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER
-            && stats.single_fallbacks_pivot == 0
-            && self.unconfirmed_since_check + 1 < SINGLE_RECHECK_EVERY
+        Self::trust_earned(stats) && self.unconfirmed_since_check + 1 < SINGLE_RECHECK_EVERY
     }
 
     /// A step's start.
@@ -114,7 +119,7 @@ impl Precision {
             self.unconfirmed_since_check = 0;
             match res {
                 Factored::Ok => {
-                    if stats.single_fallbacks_pivot == 0 && stats.single_fallbacks_indefinite >= SINGLE_TRUST_AFTER {
+                    if Self::trust_earned(stats) {
                         tracing::debug!(
                             iteration = stats.iterations,
                             "a recheck found a lost single-precision pivot: the trust ends"

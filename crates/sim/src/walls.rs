@@ -16,8 +16,8 @@
 //! the gradient of e1 over the face's free dofs, d the step): one-sided, it lets the face go
 //! slacker or stretch up to its rest length freely and stiffens it past that. For a face in the
 //! model the step solves `(H + μM + A Y a aᵀ) d = −g − A Y e1 a`: the term is the positive
-//! part's quadratic, two-sided once the face is in the model (hence [`WALL_GAP`]). The set of faces in the model
-//! is the one the previous step predicted to cross (`e1 + a·d > 0` along it, with its own set),
+//! part's quadratic, two-sided once the face is in the model (hence [`WALL_GAP`]). The set of
+//! faces in the model is the one the previous step predicted to cross (`e1 + a·d > 0` along it, with its own set),
 //! lagged by one iteration, so that a step costs one factorization as before. Solving for the
 //! consistent set each step (semismooth Newton on the piecewise-quadratic model) took 2.7–4.1
 //! factorizations per iteration for 20–36% fewer iterations: slower (torus 2994 → 1915–2273

@@ -666,20 +666,8 @@ fn slivers_converge_to_their_round_off_floor_and_say_so() {
 #[test]
 fn slack_walls_change_the_path_of_a_partial_fill_not_its_wetted_equilibrium() {
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let mut mesh = shapes::torus(0.17, 0.08, 32, 12);
-    // Stood up about x (a rotation: the orientation stays outward), its lowest point at 0.
-    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
-    let solve_with = |walls: bool| {
-        let sc = Scenario {
-            fill_level: FillLevel::Height(0.05),
-            newton: NewtonOptions { max_iterations: 3000, slack_walls: walls, ..Default::default() },
-            ..Default::default()
-        };
-        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
-        assert!(r.stats.converged, "walls {walls}: {:?}", r.stats.termination);
-        common::assert_energy_never_rises(&r.history);
-        r
-    };
+    let mesh = common::upright_torus(32, 12);
+    let solve_with = |slack_walls| fill_to(&mesh, &mat, 0.05, NewtonOptions { slack_walls, ..Default::default() });
     let (plain, walled) = (solve_with(false), solve_with(true));
     assert_eq!(plain.stats.solver.wall_steps, 0);
     let st = &walled.stats.solver;
@@ -708,19 +696,8 @@ fn slack_walls_change_the_path_of_a_partial_fill_not_its_wetted_equilibrium() {
 fn lost_single_precision_pivots_turn_the_solve_to_double_precision() {
     use clothcast_sim::newton::{FactorPrecision, SINGLE_MAX_LOST_PIVOTS};
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let mut mesh = shapes::torus(0.17, 0.08, 32, 12);
-    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
-    let run = |factor_precision| {
-        let sc = Scenario {
-            fill_level: FillLevel::Height(0.05),
-            newton: NewtonOptions { max_iterations: 3000, factor_precision, ..Default::default() },
-            ..Default::default()
-        };
-        let r = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
-        assert!(r.stats.converged, "{factor_precision:?}: {:?}", r.stats.termination);
-        common::assert_energy_never_rises(&r.history);
-        r
-    };
+    let mesh = common::upright_torus(32, 12);
+    let run = |factor_precision| fill_to(&mesh, &mat, 0.05, NewtonOptions { factor_precision, ..Default::default() });
     let (d, s) = (run(FactorPrecision::Double), run(FactorPrecision::Single));
     let st = &s.stats.solver;
     // No single-precision failure after the last lost pivot: the steps from there on are
@@ -730,6 +707,20 @@ fn lost_single_precision_pivots_turn_the_solve_to_double_precision() {
     assert!(st.double_factorizations > 2 * SINGLE_MAX_LOST_PIVOTS, "{st:?}");
     let wetted_gap = wetted_gap(&mesh, &d, &s, 0.05);
     assert!(wetted_gap < 1e-8, "the wetted fabric {wetted_gap} m apart");
+}
+
+/// `mesh` filled to `level` (m), solved with `newton` within 3000 iterations: converged, the
+/// energy never rising.
+fn fill_to(mesh: &Mesh, mat: &dyn Material, level: f64, newton: NewtonOptions) -> SimResult {
+    let sc = Scenario {
+        fill_level: FillLevel::Height(level),
+        newton: NewtonOptions { max_iterations: 3000, ..newton },
+        ..Default::default()
+    };
+    let r = simulate(mesh, mat, &sc, &mut |_| {}).unwrap();
+    assert!(r.stats.converged, "{:?}: {:?}", sc.newton, r.stats.termination);
+    common::assert_energy_never_rises(&r.history);
+    r
 }
 
 /// The largest distance between two equilibria's positions of the vertices below `level` (m).

@@ -1,6 +1,8 @@
 //! The coarse start: same equilibrium as the solve from the target, fewer fine iterations,
 //! and the plain path whenever it cannot be used.
 
+mod common;
+
 use clothcast_mesh::{FaceId, Mesh, Vec3, shapes};
 use clothcast_sim::coarse::CoarseOptions;
 use clothcast_sim::loads::Plane;
@@ -179,8 +181,7 @@ fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
 fn molds_solved_from_the_coarse_start_have_no_slack_walls() {
     use clothcast_sim::newton::CREEP_AFTER;
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(Y, NU);
-    let mut mesh = shapes::torus(0.17, 0.08, 48, 16);
-    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
+    let mesh = common::upright_torus(48, 16);
     let sc = Scenario {
         fill_level: FillLevel::Height(0.12),
         newton: NewtonOptions { max_iterations: 3000, ..Default::default() },

@@ -127,6 +127,15 @@ impl<M: clothcast_sim::material::Material> clothcast_sim::material::Material for
     }
 }
 
+/// A generated torus (tube radius 0.08 m about a circle of 0.17 m, `around` × `tube`
+/// segments) stood up about x (a rotation: the orientation stays outward), 0.5 m tall, its
+/// lowest point at 0: the partial fills' test mold.
+pub fn upright_torus(around: usize, tube: usize) -> clothcast_mesh::Mesh {
+    let mut mesh = clothcast_mesh::shapes::torus(0.17, 0.08, around, tube);
+    mesh.set_positions(mesh.positions().map(|q| Vec3::new(q.x, -q.z, q.y + 0.25)));
+    mesh
+}
+
 /// A closed mesh of the test data (`data/meshes/closed/NAME`), scaled to `height` metres along z.
 pub fn closed_test_mesh(name: &str, height: f64) -> clothcast_mesh::Mesh {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/closed").join(name);
