@@ -113,6 +113,9 @@ pub struct CoarseStats {
     pub newton_iterations: usize,
     /// Whether the coarse solve converged.
     pub converged: bool,
+    /// Newton steps of the coarse solve taken with slack walls ([`crate::walls`]); the
+    /// levels are solved without them, so 0 (reported so that a test can see it).
+    pub wall_steps: usize,
     /// Whether the fine solve's result is the one that started from the coarse equilibrium
     /// (false: it was not usable, or the fine solve from it failed and was redone from the
     /// target; `note` says which). In a nested level (`coarser`): whether the solve of the
@@ -279,6 +282,7 @@ fn transfer(pb: &Problem<'_>, ratio: usize, stats: &mut CoarseStats) -> Result<V
             .map_err(|e| format!("coarse solve failed: {e}"))?,
     };
     stats.newton_iterations = res.stats.iterations;
+    stats.wall_steps = res.stats.wall_steps;
     stats.converged = res.termination == Termination::Converged;
     if !stats.converged {
         return Err(format!("the coarse solve did not converge ({:?})", res.termination));
