@@ -445,8 +445,12 @@ pub struct SolveStats {
     /// [`SINGLE_TRUST_AFTER`] confirmations have been made in the solve and no failure was a
     /// lost pivot, all but one in [`SINGLE_RECHECK_EVERY`].
     pub single_indefinite_unconfirmed: usize,
-    /// Whether one of those rechecks found a lost pivot, which ended the trust (from then on
-    /// every single-precision failure is confirmed in double precision again).
+    /// Whether a double-precision confirmation made once the trust was earned
+    /// ([`SINGLE_TRUST_AFTER`] confirmations, no lost pivot) found a lost pivot, which ends the
+    /// trust (from then on every single-precision failure is confirmed again). That
+    /// confirmation is mostly the recheck of one in [`SINGLE_RECHECK_EVERY`]; it may also come
+    /// before a step started under the trust, when the step of the earning confirmation took
+    /// the rest of the count in failures of its own.
     pub single_trust_ended: bool,
     /// Trial steps whose overshooting vertices were relaxed ([`crate::relax`]).
     pub relaxations: usize,
