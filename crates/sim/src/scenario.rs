@@ -565,15 +565,16 @@ fn solve_from_coarse(
         Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
         Err(e) => (e.to_string(), 0),
     };
-    st.fine_iterations_discarded = spent;
-    st.fine_seconds_discarded = t.elapsed().as_secs_f64();
     let left = opts.max_iterations.saturating_sub(spent);
     tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
     if left == 0 && res.is_ok() {
+        // Kept, not discarded (a stiffness stage before the last always ends so, at its cap).
         st.used = true;
-        st.note = Some(format!("the fine solve from it failed ({why}) with no iterations left"));
+        st.note = Some(format!("the fine solve from it stopped unconverged ({why}) with no iterations left; kept"));
         return res;
     }
+    st.fine_iterations_discarded = spent;
+    st.fine_seconds_discarded = t.elapsed().as_secs_f64();
     st.note = Some(format!(
         "the fine solve from it failed ({why}); solved again from the target with the {left} iterations left"
     ));
