@@ -121,7 +121,8 @@ pub struct CoarseStats {
     /// target; `note` says which). In a nested level (`coarser`): whether the solve of the
     /// level above it started from it and converged.
     pub used: bool,
-    /// Why the coarse start was not used, if it was not.
+    /// Why the coarse start was not used, if it was not; or, when it was, why the fine solve
+    /// from it stopped unconverged (at its limit, none left: kept).
     pub note: Option<String>,
     /// Seconds: simplification (every try), the coarser levels, the coarse solve and the
     /// transfer to the finer mesh.

@@ -447,7 +447,7 @@ pub struct SolveStats {
     pub single_indefinite_unconfirmed: usize,
     /// Whether a double-precision confirmation made once the trust was earned
     /// ([`SINGLE_TRUST_AFTER`] confirmations, no lost pivot) found a lost pivot, which ends the
-    /// trust (from then on every single-precision failure is confirmed again). That
+    /// trust (from then on single-precision failures are confirmed as before the trust). That
     /// confirmation is mostly the recheck of one in [`SINGLE_RECHECK_EVERY`]; it may also come
     /// before a step started under the trust, when the step of the earning confirmation took
     /// the rest of the count in failures of its own.

@@ -539,8 +539,9 @@ fn solve_from(
     }
 }
 
-/// The fine solve from the coarse start `x`; if it fails, again from the target with the
-/// iterations that are left (the allowance is for the whole solve). `st` records which.
+/// The fine solve from the coarse start `x`; if it fails with iterations left, again from the
+/// target with those; if none are left, its result is kept (the allowance is this solve's:
+/// the whole solve's, or a stiffness stage's). `st` records which.
 fn solve_from_coarse(
     sys: &mut System<'_>,
     x: Vec<Vec3>,
@@ -566,13 +567,17 @@ fn solve_from_coarse(
         Err(e) => (e.to_string(), 0),
     };
     let left = opts.max_iterations.saturating_sub(spent);
-    tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
     if left == 0 && res.is_ok() {
-        // Kept, not discarded (a stiffness stage before the last always ends so, at its cap).
+        // Kept, not discarded (as a stiffness stage before the last is when it has not
+        // converged by its cap, START_MAX_ITERATIONS).
         st.used = true;
-        st.note = Some(format!("the fine solve from it stopped unconverged ({why}) with no iterations left; kept"));
+        st.note = Some(format!(
+            "the fine solve from it stopped unconverged ({why}) at its limit of {} iterations, none left; kept",
+            opts.max_iterations
+        ));
         return res;
     }
+    tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
     st.fine_iterations_discarded = spent;
     st.fine_seconds_discarded = t.elapsed().as_secs_f64();
     st.note = Some(format!(
@@ -757,10 +762,13 @@ fn simulate_with_rest(
         ..sc.newton.clone()
     };
     let mut coarse = None;
+    // Iterations of a first stage from the coarse start that failed and was redone from the
+    // target: not in the count, but in the limit.
+    let mut discarded = 0;
     for &factor in stages.iter().filter(|&&f| f < 1.0) {
         // The iteration limit counts every stage, the last one's at least one: once the rest
         // is spent, the last stage follows.
-        if iterations + 1 >= sc.newton.max_iterations {
+        if iterations + discarded + 1 >= sc.newton.max_iterations {
             break;
         }
         let soft = Scaled { inner: material, factor };
@@ -770,8 +778,11 @@ fn simulate_with_rest(
             coarse = coarse_for(&soft, &start);
         }
         // (It only starts the next stage.)
-        let opts = left(iterations + 1).for_start();
+        let opts = left(iterations + discarded + 1).for_start();
         let res = solve_from(&mut sys, coarse.as_mut().filter(|_| first), start, &opts, progress)?;
+        if first {
+            discarded = coarse.as_ref().map_or(0, |(_, st): &(_, CoarseStats)| st.fine_iterations_discarded);
+        }
         let converged = res.termination == Termination::Converged;
         tracing::debug!(factor, iterations = res.stats.iterations, converged, "stiffness stage");
         stiffness_stages.push(StiffnessStage { factor, newton_iterations: res.stats.iterations, converged });
@@ -792,7 +803,8 @@ fn simulate_with_rest(
     }
     // (A sewn mold has no coarse start; after stiffness stages the last one's equilibrium is
     // the start.)
-    let mut res = solve_from(&mut sys, coarse.as_mut().filter(|_| direct), start, &left(iterations), progress)?;
+    let mut res =
+        solve_from(&mut sys, coarse.as_mut().filter(|_| direct), start, &left(iterations + discarded), progress)?;
     if !direct {
         stiffness_stages.push(StiffnessStage {
             factor: 1.0,
