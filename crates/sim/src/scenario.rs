@@ -551,12 +551,9 @@ fn solve_from_coarse(
     progress: &mut dyn FnMut(&IterationReport),
 ) -> Result<NewtonResult, SolveError> {
     let t = Instant::now();
-    // Without slack walls (crate::walls) from the coarse start: on kitten filled to a fifth (0.1 m
-    // of 0.5 m, 8000 allowed) the solve with them had not finished after 65 minutes, against 17
-    // without (2026-12-07; a cycle of the damping, see walls::WALL_GAP); with the gap limit it
-    // was still unconverged when stopped after 3098 fine iterations, against 3514 in all without
-    // walls, and bunny_hr after 7108, against 5548: no gain on these molds. (Solved again from
-    // the target, below, it has them as configured.)
+    // Without slack walls from the coarse start (no gain on kitten and bunny_hr filled to a
+    // fifth: crate::walls gives the figures). Solved again from the target, below, it has them
+    // as configured.
     let res = solve(sys, x, &NewtonOptions { slack_walls: false, ..opts.clone() }, progress);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {

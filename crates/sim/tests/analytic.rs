@@ -712,13 +712,7 @@ fn lost_single_precision_pivots_turn_the_solve_to_double_precision() {
 /// `mesh` filled to `level` (m), solved with `newton` within 3000 iterations: converged, the
 /// energy never rising.
 fn fill_to(mesh: &Mesh, mat: &dyn Material, level: f64, newton: NewtonOptions) -> SimResult {
-    let sc = Scenario {
-        fill_level: FillLevel::Height(level),
-        newton: NewtonOptions { max_iterations: 3000, ..newton },
-        ..Default::default()
-    };
-    let r = simulate(mesh, mat, &sc, &mut |_| {}).unwrap();
-    assert!(r.stats.converged, "{:?}: {:?}", sc.newton, r.stats.termination);
+    let r = common::partial_fill(mesh, mat, level, Scenario { newton, ..Default::default() });
     common::assert_energy_never_rises(&r.history);
     r
 }

@@ -177,15 +177,7 @@ fn a_wide_clamp_leaves_the_coarse_copy_free_vertices() {
 /// past [`clothcast_sim::newton::CREEP_AFTER`].
 fn creeping_fill(y: f64, level: f64, coarse: Option<CoarseOptions>) -> SimResult {
     let mat = WrinklingStVenantKirchhoff::from_young_poisson(y, NU);
-    let sc = Scenario {
-        fill_level: FillLevel::Height(level),
-        coarse,
-        newton: NewtonOptions { max_iterations: 3000, ..Default::default() },
-        ..Default::default()
-    };
-    let r = simulate(&common::upright_torus(48, 16), &mat, &sc, &mut |_| {}).unwrap();
-    assert!(r.stats.converged, "{:?}", r.stats.solver);
-    r
+    common::partial_fill(&common::upright_torus(48, 16), &mat, level, Scenario { coarse, ..Default::default() })
 }
 
 /// A coarse copy of the torus of [`creeping_fill`] with 768 faces (SMALL's ratio would leave

@@ -136,6 +136,21 @@ pub fn upright_torus(around: usize, tube: usize) -> clothcast_mesh::Mesh {
     mesh
 }
 
+/// `mesh` filled to `level` (m) in scenario `sc` (its fill level and iteration limit replaced:
+/// 3000), asserted converged.
+pub fn partial_fill(
+    mesh: &clothcast_mesh::Mesh,
+    mat: &dyn clothcast_sim::material::Material,
+    level: f64,
+    mut sc: clothcast_sim::Scenario,
+) -> clothcast_sim::SimResult {
+    sc.fill_level = clothcast_sim::FillLevel::Height(level);
+    sc.newton.max_iterations = 3000;
+    let r = clothcast_sim::simulate(mesh, mat, &sc, &mut |_| {}).unwrap();
+    assert!(r.stats.converged, "{:?}: {:?} {:?}", sc.newton, r.stats.termination, r.stats.solver);
+    r
+}
+
 /// A closed mesh of the test data (`data/meshes/closed/NAME`), scaled to `height` metres along z.
 pub fn closed_test_mesh(name: &str, height: f64) -> clothcast_mesh::Mesh {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/meshes/closed").join(name);
