@@ -554,7 +554,12 @@ fn solve_from_coarse(
     // Without slack walls from the coarse start (no gain on kitten and bunny_hr filled to a
     // fifth: crate::walls gives the figures). Solved again from the target, below, it has them
     // as configured.
-    let res = solve(sys, x, &NewtonOptions { slack_walls: false, ..opts.clone() }, progress);
+    let fine = NewtonOptions { slack_walls: false, ..opts.clone() };
+    #[cfg(test)]
+    let fine = tests::stall_cap(fine);
+    let res = solve(sys, x, &fine, progress);
+    #[cfg(test)]
+    let res = tests::injected_stall(res);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;
@@ -919,7 +924,87 @@ fn simulate_with_rest(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material::WrinklingStVenantKirchhoff;
     use clothcast_mesh::shapes;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// When set, the fine solve from the coarse start stops after at most this many
+        /// iterations, as stalled when not converged (no mold found takes this path).
+        static STALL_FROM_COARSE_AFTER: Cell<Option<usize>> = const { Cell::new(None) };
+    }
+
+    /// The fine solve's options from the coarse start, capped where it is to stall.
+    pub(super) fn stall_cap(opts: NewtonOptions) -> NewtonOptions {
+        match STALL_FROM_COARSE_AFTER.get() {
+            Some(k) => NewtonOptions { max_iterations: opts.max_iterations.min(k), ..opts },
+            None => opts,
+        }
+    }
+
+    /// The fine solve's result from the coarse start, stalled at the cap of [`stall_cap`].
+    pub(super) fn injected_stall(res: Result<NewtonResult, SolveError>) -> Result<NewtonResult, SolveError> {
+        res.map(|mut r| {
+            if STALL_FROM_COARSE_AFTER.get().is_some() && r.termination == Termination::MaxIterations {
+                r.termination = Termination::Stalled("injected by the test".into());
+            }
+            r
+        })
+    }
+
+    /// The fine solve from the coarse start stalls (injected): it is solved again from the
+    /// target, and the iterations the failed solve spent count against the whole solve's
+    /// limit, though not in its iteration count; for a stiff fabric's first stage (the stages
+    /// after it get fewer) and for a direct solve (which is then the plain one).
+    #[test]
+    fn a_failed_solve_from_the_coarse_start_counts_in_the_limit() {
+        let mesh = shapes::icosphere(4, 0.2);
+        // Y / (ρ g H²) = 873: stages at 0.11, 0.34 and 1 of the stiffness.
+        let mat = WrinklingStVenantKirchhoff::from_young_poisson(2e6, 0.3);
+        // From the coarse start: 11 + 9 + 10 iterations. With the first stage stalled after 5
+        // and redone from the target, the stages need 10 + 9 + 10, and 27 are left for them.
+        let limit = 32;
+        let sc = Scenario {
+            coarse: Some(CoarseOptions { min_faces: 1000, ratio: 8 }),
+            newton: NewtonOptions { max_iterations: limit, ..Default::default() },
+            ..Default::default()
+        };
+        let plain = simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap();
+        assert!(plain.stats.converged && plain.stats.stiffness_stages.len() == 3, "{:?}", plain.stats.stiffness_stages);
+        assert!(plain.stats.coarse_start.as_ref().is_some_and(|c| c.used && c.fine_iterations_discarded == 0));
+        STALL_FROM_COARSE_AFTER.set(Some(5));
+        let res = simulate(&mesh, &mat, &sc, &mut |_| {});
+        STALL_FROM_COARSE_AFTER.set(None);
+        let r = res.unwrap();
+        let st = r.stats.coarse_start.as_ref().expect("tried");
+        assert!(!st.used && st.fine_iterations_discarded == 5, "{st:?}");
+        let note = st.note.as_deref().unwrap_or("");
+        assert!(note.contains("failed (Stalled") && note.contains("with the 26 iterations left"), "{note}");
+        assert_eq!(r.stats.newton_iterations + st.fine_iterations_discarded, limit, "{:?}", r.stats.stiffness_stages);
+        assert!(!r.stats.converged && r.stats.stiffness_stages.len() == 3, "{:?}", r.stats.stiffness_stages);
+        // Without stages (the default fabric): from the coarse start 7 iterations, from the
+        // target 9. Stalled after 5, the solve from the target is the plain one, and within 12
+        // it has the 7 left.
+        let mat = WrinklingStVenantKirchhoff::from_young_poisson(5e4, 0.3);
+        let direct = simulate(&mesh, &mat, &Scenario { coarse: None, ..sc.clone() }, &mut |_| {}).unwrap();
+        for limit in [32, 12] {
+            let sc = Scenario { newton: NewtonOptions { max_iterations: limit, ..Default::default() }, ..sc.clone() };
+            assert!(simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap().stats.converged);
+            STALL_FROM_COARSE_AFTER.set(Some(5));
+            let res = simulate(&mesh, &mat, &sc, &mut |_| {});
+            STALL_FROM_COARSE_AFTER.set(None);
+            let r = res.unwrap();
+            let st = r.stats.coarse_start.as_ref().expect("tried");
+            assert!(!st.used && st.fine_iterations_discarded == 5, "{st:?}");
+            assert!(r.stats.newton_iterations + 5 <= limit, "{limit}: {}", r.stats.newton_iterations);
+            if limit == 32 {
+                assert!(r.stats.converged);
+                assert_eq!(r.positions.as_slice(), direct.positions.as_slice());
+            } else {
+                assert!(!r.stats.converged && r.stats.newton_iterations == 7, "{}", r.stats.newton_iterations);
+            }
+        }
+    }
 
     /// Two supports facing each other closer than the clearance a lifted vertex is given: each
     /// lift puts the vertex behind the other support, and after the passes it is refused as
