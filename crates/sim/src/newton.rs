@@ -500,6 +500,19 @@ pub fn solve(
     opts: &NewtonOptions,
     progress: &mut dyn FnMut(&IterationReport),
 ) -> Result<NewtonResult, SolveError> {
+    solve_counted(sys, x0, opts, progress, &mut 0)
+}
+
+/// [`solve`], with the iterations begun kept in `begun` as it goes: what a failed solve spent
+/// (its error carries no statistics; an iteration's factorization can fail before its report).
+pub(crate) fn solve_counted(
+    sys: &mut System<'_>,
+    x0: Vec<Vec3>,
+    opts: &NewtonOptions,
+    progress: &mut dyn FnMut(&IterationReport),
+    begun: &mut usize,
+) -> Result<NewtonResult, SolveError> {
+    *begun = 0;
     let mut stats = SolveStats { dofs: sys.n_dofs(), hessian_nnz: sys.pattern().nnz(), ..Default::default() };
     let mut factor_times: Vec<f64> = Vec::new();
     let mut history = Vec::new();
@@ -628,6 +641,7 @@ pub fn solve(
             tracing::debug!(iteration = stats.iterations + 1, residual = r, "geometric term exact from here");
         }
         stats.iterations += 1;
+        *begun = stats.iterations;
         let mut vals = ev.hessian.expect("requested");
         let mut rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
         // A creeping solve: the slack faces the last step ran into are walls of this step's

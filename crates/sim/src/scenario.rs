@@ -6,7 +6,7 @@ use crate::element::{Bar, Element};
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
 use crate::material::Material;
-use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve};
+use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve, solve_counted};
 use crate::system::{Loads, System};
 use clothcast_mesh::sparse::SolveError;
 use clothcast_mesh::{EdgeId, FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
@@ -555,17 +555,19 @@ fn solve_from_coarse(
     // fifth: crate::walls gives the figures). Solved again from the target, below, it has them
     // as configured.
     let fine = NewtonOptions { slack_walls: false, ..opts.clone() };
+    // The iterations it began, counted also when it fails with an error.
+    let mut begun = 0;
     #[cfg(not(test))]
-    let res = solve(sys, x, &fine, progress);
+    let res = solve_counted(sys, x, &fine, progress, &mut begun);
     #[cfg(test)]
-    let res = tests::solve_or_stall(sys, x, fine, progress);
+    let res = tests::solve_or_fail(sys, x, fine, progress, &mut begun);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;
             return res;
         }
         Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
-        Err(e) => (e.to_string(), 0),
+        Err(e) => (e.to_string(), begun),
     };
     let left = opts.max_iterations.saturating_sub(spent);
     if left == 0 && res.is_ok() {
@@ -927,42 +929,60 @@ mod tests {
     use clothcast_mesh::shapes;
     use std::cell::Cell;
 
-    thread_local! {
-        /// When set, the fine solve from the coarse start stops after at most this many
-        /// iterations, as stalled when not converged (no mold found takes this path).
-        static STALL_FROM_COARSE_AFTER: Cell<Option<usize>> = const { Cell::new(None) };
+    /// How the test makes the fine solve from the coarse start fail (no mold found takes
+    /// this path).
+    #[derive(Clone, Copy)]
+    enum Failure {
+        /// Stalled (a result, unconverged).
+        Stall,
+        /// An error (as a failed factorization is).
+        Error,
     }
 
-    /// [`solve`], stopped after [`STALL_FROM_COARSE_AFTER`] iterations as stalled when that is
-    /// set and the solve has not converged by then.
-    pub(super) fn solve_or_stall(
+    thread_local! {
+        /// When set, the fine solve from the coarse start stops after at most this many
+        /// iterations and, when not converged by then, fails so.
+        static FAIL_FROM_COARSE_AFTER: Cell<Option<(usize, Failure)>> = const { Cell::new(None) };
+    }
+
+    /// [`solve_counted`], failed after [`FAIL_FROM_COARSE_AFTER`] iterations when that is set
+    /// and the solve has not converged by then.
+    pub(super) fn solve_or_fail(
         sys: &mut System<'_>,
         x: Vec<Vec3>,
         opts: NewtonOptions,
         progress: &mut dyn FnMut(&IterationReport),
+        begun: &mut usize,
     ) -> Result<NewtonResult, SolveError> {
-        let Some(k) = STALL_FROM_COARSE_AFTER.get() else { return solve(sys, x, &opts, progress) };
-        let mut r = solve(sys, x, &opts.at_most(k), progress)?;
+        let Some((k, how)) = FAIL_FROM_COARSE_AFTER.get() else {
+            return solve_counted(sys, x, &opts, progress, begun);
+        };
+        let mut r = solve_counted(sys, x, &opts.at_most(k), progress, begun)?;
+        assert_eq!(*begun, r.stats.iterations, "the iterations begun are the solve's");
         if r.termination == Termination::MaxIterations {
-            r.termination = Termination::Stalled("injected by the test".into());
+            match how {
+                Failure::Stall => r.termination = Termination::Stalled("injected by the test".into()),
+                Failure::Error => return Err(SolveError::Internal("injected by the test".into())),
+            }
         }
         Ok(r)
     }
 
-    /// `mesh` simulated with the fine solve from the coarse start stalled after 5 iterations:
-    /// redone from the target (the coarse start not used, its 5 iterations discarded).
-    fn stalled_from_coarse(mesh: &Mesh, mat: &dyn Material, sc: &Scenario) -> SimResult {
-        STALL_FROM_COARSE_AFTER.set(Some(5));
+    /// `mesh` simulated with the fine solve from the coarse start failed `how` after 5
+    /// iterations: redone from the target (the coarse start not used, its 5 iterations
+    /// discarded).
+    fn failed_from_coarse(mesh: &Mesh, mat: &dyn Material, sc: &Scenario, how: Failure) -> SimResult {
+        FAIL_FROM_COARSE_AFTER.set(Some((5, how)));
         let res = simulate(mesh, mat, sc, &mut |_| {});
-        STALL_FROM_COARSE_AFTER.set(None);
+        FAIL_FROM_COARSE_AFTER.set(None);
         let r = res.unwrap();
         let st = r.stats.coarse_start.as_ref().expect("tried");
         assert!(!st.used && st.fine_iterations_discarded == 5, "{st:?}");
         r
     }
 
-    /// The fine solve from the coarse start stalls (injected): it is solved again from the
-    /// target, and the iterations the failed solve spent count against the whole solve's
+    /// The fine solve from the coarse start stalls or fails with an error (injected): it is
+    /// solved again from the target, and the iterations the failed solve spent count against the whole solve's
     /// limit, though not in its iteration count; for a stiff fabric's first stage (the stages
     /// after it get fewer) and for a direct solve (which is then the plain one).
     #[test]
@@ -970,7 +990,7 @@ mod tests {
         let mesh = shapes::icosphere(4, 0.2);
         // Y / (ρ g H²) = 959: stages at 0.10, 0.31 and 1 of the stiffness.
         let mat = WrinklingStVenantKirchhoff::from_young_poisson(2e6, 0.3);
-        // From the coarse start: 11 + 9 + 10 iterations. With the first stage stalled after 5
+        // From the coarse start: 11 + 9 + 10 iterations. With the first stage failed after 5
         // and redone from the target, the stages need 10 + 9 + 10, and 27 are left for them.
         let limit = 32;
         let sc = Scenario {
@@ -982,27 +1002,32 @@ mod tests {
         let stages = &from_coarse.stats.stiffness_stages;
         assert!(from_coarse.stats.converged && stages.len() == 3, "{stages:?}");
         assert!(from_coarse.stats.coarse_start.as_ref().is_some_and(|c| c.used && c.fine_iterations_discarded == 0));
-        let r = stalled_from_coarse(&mesh, &mat, &sc);
-        let st = r.stats.coarse_start.as_ref().expect("tried");
-        let note = st.note.as_deref().unwrap_or("");
-        assert!(note.contains("failed (Stalled") && note.contains("with the 26 iterations left"), "{note}");
-        assert_eq!(r.stats.newton_iterations + st.fine_iterations_discarded, limit, "{:?}", r.stats.stiffness_stages);
-        assert!(!r.stats.converged && r.stats.stiffness_stages.len() == 3, "{:?}", r.stats.stiffness_stages);
+        for (how, why) in [(Failure::Stall, "failed (Stalled"), (Failure::Error, "failed (sparse solver failure")] {
+            let r = failed_from_coarse(&mesh, &mat, &sc, how);
+            let st = r.stats.coarse_start.as_ref().expect("tried");
+            let note = st.note.as_deref().unwrap_or("");
+            assert!(note.contains(why) && note.contains("with the 26 iterations left"), "{note}");
+            let stages = &r.stats.stiffness_stages;
+            assert_eq!(r.stats.newton_iterations + st.fine_iterations_discarded, limit, "{stages:?}");
+            assert!(!r.stats.converged && stages.len() == 3, "{stages:?}");
+        }
         // Without stages (the default fabric): from the coarse start 7 iterations, from the
-        // target 9. Stalled after 5, the solve from the target is the plain one, and within 12
+        // target 9. Failed after 5, the solve from the target is the plain one, and within 12
         // it has the 7 left.
         let mat = WrinklingStVenantKirchhoff::from_young_poisson(5e4, 0.3);
         let direct = simulate(&mesh, &mat, &Scenario { coarse: None, ..sc.clone() }, &mut |_| {}).unwrap();
         for limit in [32, 12] {
             let sc = Scenario { newton: NewtonOptions { max_iterations: limit, ..Default::default() }, ..sc.clone() };
             assert!(simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap().stats.converged);
-            let r = stalled_from_coarse(&mesh, &mat, &sc);
-            assert!(r.stats.newton_iterations + 5 <= limit, "{limit}: {}", r.stats.newton_iterations);
-            if limit == 32 {
-                assert!(r.stats.converged);
-                assert_eq!(r.positions.as_slice(), direct.positions.as_slice());
-            } else {
-                assert!(!r.stats.converged && r.stats.newton_iterations == 7, "{}", r.stats.newton_iterations);
+            for how in [Failure::Stall, Failure::Error] {
+                let r = failed_from_coarse(&mesh, &mat, &sc, how);
+                assert!(r.stats.newton_iterations + 5 <= limit, "{limit}: {}", r.stats.newton_iterations);
+                if limit == 32 {
+                    assert!(r.stats.converged);
+                    assert_eq!(r.positions.as_slice(), direct.positions.as_slice());
+                } else {
+                    assert!(!r.stats.converged && r.stats.newton_iterations == 7, "{}", r.stats.newton_iterations);
+                }
             }
         }
     }
