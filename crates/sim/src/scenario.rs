@@ -540,8 +540,8 @@ fn solve_from(
 }
 
 /// The fine solve from the coarse start `x`; if it fails with iterations left, again from the
-/// target with those; if none are left, its result is kept (the allowance is this solve's:
-/// the whole solve's, or a stiffness stage's). `st` records which.
+/// target with those; if none are left, its result is kept, or its error returned (the
+/// allowance is this solve's: the whole solve's, or a stiffness stage's). `st` records which.
 fn solve_from_coarse(
     sys: &mut System<'_>,
     x: Vec<Vec3>,
@@ -570,14 +570,17 @@ fn solve_from_coarse(
         Err(e) => (e.to_string(), begun),
     };
     let left = opts.max_iterations.saturating_sub(spent);
-    if left == 0 && res.is_ok() {
-        // Kept, not discarded (as a stiffness stage before the last is when it has not
-        // converged by its cap, START_MAX_ITERATIONS).
-        st.used = true;
-        st.note = Some(format!(
-            "the fine solve from it stopped unconverged ({why}) at its limit of {} iterations, none left; kept",
-            opts.max_iterations
-        ));
+    if left == 0 {
+        // None left to solve again with. Unconverged, it is kept, not discarded (as a
+        // stiffness stage before the last is when it has not converged by its cap,
+        // START_MAX_ITERATIONS); an error is the solve's.
+        if res.is_ok() {
+            st.used = true;
+            st.note = Some(format!(
+                "the fine solve from it stopped unconverged ({why}) at its limit of {} iterations, none left; kept",
+                opts.max_iterations
+            ));
+        }
         return res;
     }
     tracing::debug!(reason = %why, left, "the fine solve from the coarse start failed");
@@ -982,9 +985,10 @@ mod tests {
     }
 
     /// The fine solve from the coarse start stalls or fails with an error (injected): it is
-    /// solved again from the target, and the iterations the failed solve spent count against the whole solve's
-    /// limit, though not in its iteration count; for a stiff fabric's first stage (the stages
-    /// after it get fewer) and for a direct solve (which is then the plain one).
+    /// solved again from the target, and the iterations the failed solve spent count against
+    /// the whole solve's limit, though not in its iteration count; for a stiff fabric's first
+    /// stage (the stages after it get fewer) and for a direct solve (which is then the plain
+    /// one). With none left, a stalled solve is kept and an error is the simulation's.
     #[test]
     fn a_failed_solve_from_the_coarse_start_counts_in_the_limit() {
         let mesh = shapes::icosphere(4, 0.2);
@@ -1011,6 +1015,19 @@ mod tests {
             assert_eq!(r.stats.newton_iterations + st.fine_iterations_discarded, limit, "{stages:?}");
             assert!(!r.stats.converged && stages.len() == 3, "{stages:?}");
         }
+        // Failed at the limit itself (10, the first stage's allowance then, which its coarse
+        // level converges within): stalled, it is kept; an error is the simulation's.
+        let at_limit = Scenario { newton: NewtonOptions { max_iterations: 10, ..Default::default() }, ..sc.clone() };
+        FAIL_FROM_COARSE_AFTER.set(Some((10, Failure::Stall)));
+        let stalled = simulate(&mesh, &mat, &at_limit, &mut |_| {});
+        FAIL_FROM_COARSE_AFTER.set(Some((10, Failure::Error)));
+        let failed = simulate(&mesh, &mat, &at_limit, &mut |_| {});
+        FAIL_FROM_COARSE_AFTER.set(None);
+        let r = stalled.unwrap();
+        let st = r.stats.coarse_start.as_ref().expect("tried");
+        assert!(st.used && st.note.as_deref().is_some_and(|n| n.contains("none left; kept")), "{st:?}");
+        assert!(!r.stats.converged && r.stats.newton_iterations == 10, "{}", r.stats.newton_iterations);
+        assert!(matches!(failed, Err(SimError::Solver(SolveError::Internal(_)))), "{:?}", failed.err());
         // Without stages (the default fabric): from the coarse start 7 iterations, from the
         // target 9. Failed after 5, the solve from the target is the plain one, and within 12
         // it has the 7 left.
