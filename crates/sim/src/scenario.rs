@@ -971,14 +971,26 @@ mod tests {
         Ok(r)
     }
 
+    /// `mesh` simulated with the fine solve from the coarse start failed `how` after `k`
+    /// iterations (the hook cleared after).
+    fn simulate_failing(
+        mesh: &Mesh,
+        mat: &dyn Material,
+        sc: &Scenario,
+        k: usize,
+        how: Failure,
+    ) -> Result<SimResult, SimError> {
+        FAIL_FROM_COARSE_AFTER.set(Some((k, how)));
+        let res = simulate(mesh, mat, sc, &mut |_| {});
+        FAIL_FROM_COARSE_AFTER.set(None);
+        res
+    }
+
     /// `mesh` simulated with the fine solve from the coarse start failed `how` after 5
     /// iterations: redone from the target (the coarse start not used, its 5 iterations
     /// discarded).
     fn failed_from_coarse(mesh: &Mesh, mat: &dyn Material, sc: &Scenario, how: Failure) -> SimResult {
-        FAIL_FROM_COARSE_AFTER.set(Some((5, how)));
-        let res = simulate(mesh, mat, sc, &mut |_| {});
-        FAIL_FROM_COARSE_AFTER.set(None);
-        let r = res.unwrap();
+        let r = simulate_failing(mesh, mat, sc, 5, how).unwrap();
         let st = r.stats.coarse_start.as_ref().expect("tried");
         assert!(!st.used && st.fine_iterations_discarded == 5, "{st:?}");
         r
@@ -1018,15 +1030,11 @@ mod tests {
         // Failed at the limit itself (10, the first stage's allowance then, which its coarse
         // level converges within): stalled, it is kept; an error is the simulation's.
         let at_limit = Scenario { newton: NewtonOptions { max_iterations: 10, ..Default::default() }, ..sc.clone() };
-        FAIL_FROM_COARSE_AFTER.set(Some((10, Failure::Stall)));
-        let stalled = simulate(&mesh, &mat, &at_limit, &mut |_| {});
-        FAIL_FROM_COARSE_AFTER.set(Some((10, Failure::Error)));
-        let failed = simulate(&mesh, &mat, &at_limit, &mut |_| {});
-        FAIL_FROM_COARSE_AFTER.set(None);
-        let r = stalled.unwrap();
+        let r = simulate_failing(&mesh, &mat, &at_limit, 10, Failure::Stall).unwrap();
         let st = r.stats.coarse_start.as_ref().expect("tried");
         assert!(st.used && st.note.as_deref().is_some_and(|n| n.contains("none left; kept")), "{st:?}");
         assert!(!r.stats.converged && r.stats.newton_iterations == 10, "{}", r.stats.newton_iterations);
+        let failed = simulate_failing(&mesh, &mat, &at_limit, 10, Failure::Error);
         assert!(matches!(failed, Err(SimError::Solver(SolveError::Internal(_)))), "{:?}", failed.err());
         // Without stages (the default fabric): from the coarse start 7 iterations, from the
         // target 9. Failed after 5, the solve from the target is the plain one, and within 12
