@@ -493,26 +493,43 @@ pub struct NewtonResult {
     pub world_gradient: Vec<Vec3>,
 }
 
+/// A Newton solve that failed with an error of the sparse layer (a failed symbolic analysis
+/// or factorization: not an input problem), with what the solve had spent until then. A
+/// solve that merely stops short of the tolerance is no error: it returns its
+/// [`Termination`].
+#[derive(Debug)]
+pub struct NewtonError {
+    /// What failed.
+    pub error: SolveError,
+    /// The solve's statistics when it failed: `iterations` counts the iteration that failed
+    /// (its factorization can fail before the iteration is reported to `progress`). Boxed, so
+    /// that a `Result` holding it stays small.
+    pub stats: Box<SolveStats>,
+}
+
+impl std::fmt::Display for NewtonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.stats.iterations {
+            0 => write!(f, "{} (before the first Newton iteration)", self.error),
+            k => write!(
+                f,
+                "{} (in Newton iteration {k}, after {} factorizations)",
+                self.error, self.stats.factorizations
+            ),
+        }
+    }
+}
+
+// The sparse error is part of the message, so it is not also given as the source.
+impl std::error::Error for NewtonError {}
+
 /// Solve for equilibrium from `x0`. `progress` is called after every iteration.
 pub fn solve(
     sys: &mut System<'_>,
     x0: Vec<Vec3>,
     opts: &NewtonOptions,
     progress: &mut dyn FnMut(&IterationReport),
-) -> Result<NewtonResult, SolveError> {
-    solve_counted(sys, x0, opts, progress, &mut 0)
-}
-
-/// [`solve`], with the iterations begun kept in `begun` as it goes: what a failed solve spent
-/// (its error carries no statistics; an iteration's factorization can fail before its report).
-pub(crate) fn solve_counted(
-    sys: &mut System<'_>,
-    x0: Vec<Vec3>,
-    opts: &NewtonOptions,
-    progress: &mut dyn FnMut(&IterationReport),
-    begun: &mut usize,
-) -> Result<NewtonResult, SolveError> {
-    *begun = 0;
+) -> Result<NewtonResult, NewtonError> {
     let mut stats = SolveStats { dofs: sys.n_dofs(), hessian_nnz: sys.pattern().nnz(), ..Default::default() };
     let mut factor_times: Vec<f64> = Vec::new();
     let mut history = Vec::new();
@@ -531,7 +548,8 @@ pub(crate) fn solve_counted(
     // The fill-reducing ordering: AMD or nested dissection, whichever gives the smaller factor
     // (nested dissection wins on large meshes: kitten's factorization 0.30 → 0.21 s), or
     // nested dissection with a somewhat larger one when it can be split over two threads.
-    let ordering = sys.dof_ordering(opts.split_factorization)?;
+    let failed = |error, stats: &SolveStats| NewtonError { error, stats: Box::new(stats.clone()) };
+    let ordering = sys.dof_ordering(opts.split_factorization).map_err(|e| failed(e, &stats))?;
     tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, nested = ordering.nested, "vertex-graph factor sizes");
     let mut split = None;
     // Two threads for the factorization and the solves where the ordering offers its split
@@ -552,7 +570,8 @@ pub(crate) fn solve_counted(
         // Without its split, nested dissection chosen for it (with the larger factor) gives
         // way to AMD.
         None => {
-            CholeskySolver::with_ordering(sys.pattern(), Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)))?
+            CholeskySolver::with_ordering(sys.pattern(), Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)))
+                .map_err(|e| failed(e, &stats))?
         }
     };
     tracing::debug!(len = chol.factor_len(), "factor size");
@@ -641,7 +660,6 @@ pub(crate) fn solve_counted(
             tracing::debug!(iteration = stats.iterations + 1, residual = r, "geometric term exact from here");
         }
         stats.iterations += 1;
-        *begun = stats.iterations;
         let mut vals = ev.hessian.expect("requested");
         let mut rhs: Vec<f64> = ev.gradient.iter().map(|g| -g).collect();
         // A creeping solve: the slack faces the last step ran into are walls of this step's
@@ -722,7 +740,13 @@ pub(crate) fn solve_counted(
                             damping.add(&mut vals, mu);
                         }
                         Next::Refactor => {}
-                        Next::Fail => return Err(res.expect_err("a failed factorization")),
+                        Next::Fail => {
+                            finish(&mut stats, &mut factor_times);
+                            return Err(NewtonError {
+                                error: res.expect_err("a failed factorization"),
+                                stats: Box::new(stats),
+                            });
+                        }
                     }
                 };
                 if !ok {
@@ -904,9 +928,14 @@ pub(crate) fn solve_counted(
         }
     }
     tracing::debug!(?stats, "newton stats");
+    finish(&mut stats, &mut factor_times);
+    Ok(NewtonResult { positions: x, termination, stats, history, world_gradient: last_world_gradient })
+}
+
+/// The statistics' median factorization time, from the successful factorizations' times.
+fn finish(stats: &mut SolveStats, factor_times: &mut [f64]) {
     factor_times.sort_by(f64::total_cmp);
     stats.factorization_seconds_median = factor_times.get(factor_times.len() / 2).copied().unwrap_or(0.0);
-    Ok(NewtonResult { positions: x, termination, stats, history, world_gradient: last_world_gradient })
 }
 
 /// The numeric factors, in double and single precision, each kept once allocated (a switch

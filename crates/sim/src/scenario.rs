@@ -6,9 +6,8 @@ use crate::element::{Bar, Element};
 use crate::hydrostatic::Hydrostatic;
 use crate::loads::{Barrier, Plane};
 use crate::material::Material;
-use crate::newton::{IterationReport, NewtonOptions, NewtonResult, SolveStats, Termination, solve, solve_counted};
+use crate::newton::{IterationReport, NewtonError, NewtonOptions, NewtonResult, SolveStats, Termination, solve};
 use crate::system::{Loads, System};
-use clothcast_mesh::sparse::SolveError;
 use clothcast_mesh::{EdgeId, FaceData, FaceId, Mesh, Vec3, VertexData, VertexId};
 use nalgebra::Vector2;
 use serde::Serialize;
@@ -177,9 +176,10 @@ pub enum SimError {
          mold's lowest point; no head_pressure; no self weight): there is nothing to simulate"
     )]
     NoLoad,
-    /// The linear solver failed (not an input problem).
+    /// The linear solver failed (not an input problem), in the Newton solve whose statistics
+    /// the error carries.
     #[error("linear solver failure: {0}")]
-    Solver(#[from] SolveError),
+    Solver(#[from] NewtonError),
 }
 
 /// Why a vertex on or behind a support cannot start in front of it ([`SimError::BehindSupport`]).
@@ -532,7 +532,7 @@ fn solve_from(
     start: Vec<Vec3>,
     opts: &NewtonOptions,
     progress: &mut dyn FnMut(&IterationReport),
-) -> Result<NewtonResult, SolveError> {
+) -> Result<NewtonResult, NewtonError> {
     match coarse {
         Some((Some(x), st)) => solve_from_coarse(sys, std::mem::take(x), st, start, opts, progress),
         _ => solve(sys, start, opts, progress),
@@ -549,25 +549,24 @@ fn solve_from_coarse(
     target: Vec<Vec3>,
     opts: &NewtonOptions,
     progress: &mut dyn FnMut(&IterationReport),
-) -> Result<NewtonResult, SolveError> {
+) -> Result<NewtonResult, NewtonError> {
     let t = Instant::now();
     // Without slack walls from the coarse start (no gain on kitten and bunny_hr filled to a
     // fifth: crate::walls gives the figures). Solved again from the target, below, it has them
     // as configured.
     let fine = NewtonOptions { slack_walls: false, ..opts.clone() };
-    // The iterations it began, counted also when it fails with an error.
-    let mut begun = 0;
     #[cfg(not(test))]
-    let res = solve_counted(sys, x, &fine, progress, &mut begun);
+    let res = solve(sys, x, &fine, progress);
     #[cfg(test)]
-    let res = tests::solve_or_fail(sys, x, fine, progress, &mut begun);
+    let res = tests::solve_or_fail(sys, x, fine, progress);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;
             return res;
         }
         Ok(r) => (format!("{:?}", r.termination), r.stats.iterations),
-        Err(e) => (e.to_string(), begun),
+        // Its error counts the iterations it began.
+        Err(e) => (e.to_string(), e.stats.iterations),
     };
     let left = opts.max_iterations.saturating_sub(spent);
     if left == 0 {
@@ -930,6 +929,7 @@ mod tests {
     use super::*;
     use crate::material::WrinklingStVenantKirchhoff;
     use clothcast_mesh::shapes;
+    use clothcast_mesh::sparse::SolveError;
     use std::cell::Cell;
 
     /// How the test makes the fine solve from the coarse start fail (no mold found takes
@@ -948,24 +948,26 @@ mod tests {
         static FAIL_FROM_COARSE_AFTER: Cell<Option<(usize, Failure)>> = const { Cell::new(None) };
     }
 
-    /// [`solve_counted`], failed after [`FAIL_FROM_COARSE_AFTER`] iterations when that is set
-    /// and the solve has not converged by then.
+    /// [`solve`], failed after [`FAIL_FROM_COARSE_AFTER`] iterations when that is set and the
+    /// solve has not converged by then (an error then carries the statistics of the
+    /// iterations spent, as a failed factorization's does).
     pub(super) fn solve_or_fail(
         sys: &mut System<'_>,
         x: Vec<Vec3>,
         opts: NewtonOptions,
         progress: &mut dyn FnMut(&IterationReport),
-        begun: &mut usize,
-    ) -> Result<NewtonResult, SolveError> {
+    ) -> Result<NewtonResult, NewtonError> {
         let Some((k, how)) = FAIL_FROM_COARSE_AFTER.get() else {
-            return solve_counted(sys, x, &opts, progress, begun);
+            return solve(sys, x, &opts, progress);
         };
-        let mut r = solve_counted(sys, x, &opts.at_most(k), progress, begun)?;
-        assert_eq!(*begun, r.stats.iterations, "the iterations begun are the solve's");
+        let mut r = solve(sys, x, &opts.at_most(k), progress)?;
         if r.termination == Termination::MaxIterations {
             match how {
                 Failure::Stall => r.termination = Termination::Stalled("injected by the test".into()),
-                Failure::Error => return Err(SolveError::Internal("injected by the test".into())),
+                Failure::Error => {
+                    let error = SolveError::Internal("injected by the test".into());
+                    return Err(NewtonError { error, stats: Box::new(r.stats) });
+                }
             }
         }
         Ok(r)
@@ -1018,7 +1020,8 @@ mod tests {
         let stages = &from_coarse.stats.stiffness_stages;
         assert!(from_coarse.stats.converged && stages.len() == 3, "{stages:?}");
         assert!(from_coarse.stats.coarse_start.as_ref().is_some_and(|c| c.used && c.fine_iterations_discarded == 0));
-        for (how, why) in [(Failure::Stall, "failed (Stalled"), (Failure::Error, "failed (sparse solver failure")] {
+        let error = "failed (sparse solver failure: injected by the test (in Newton iteration 5, after";
+        for (how, why) in [(Failure::Stall, "failed (Stalled"), (Failure::Error, error)] {
             let r = failed_from_coarse(&mesh, &mat, &sc, how);
             let st = r.stats.coarse_start.as_ref().expect("tried");
             let note = st.note.as_deref().unwrap_or("");
@@ -1027,15 +1030,21 @@ mod tests {
             assert_eq!(r.stats.newton_iterations + st.fine_iterations_discarded, limit, "{stages:?}");
             assert!(!r.stats.converged && stages.len() == 3, "{stages:?}");
         }
-        // Failed at the limit itself (10, the first stage's allowance then, which its coarse
-        // level converges within): stalled, it is kept; an error is the simulation's.
+        // Failed at its limit itself: with a limit of 10 the first stage may take 9 (one is
+        // kept for the last stage), and its coarse level converges within them. Stalled at
+        // its 9th iteration, it is kept (the last stage then takes the one left); an error
+        // there is the simulation's, and carries the 9 iterations.
         let at_limit = Scenario { newton: NewtonOptions { max_iterations: 10, ..Default::default() }, ..sc.clone() };
-        let r = simulate_failing(&mesh, &mat, &at_limit, 10, Failure::Stall).unwrap();
+        let r = simulate_failing(&mesh, &mat, &at_limit, 9, Failure::Stall).unwrap();
         let st = r.stats.coarse_start.as_ref().expect("tried");
         assert!(st.used && st.note.as_deref().is_some_and(|n| n.contains("none left; kept")), "{st:?}");
-        assert!(!r.stats.converged && r.stats.newton_iterations == 10, "{}", r.stats.newton_iterations);
-        let failed = simulate_failing(&mesh, &mat, &at_limit, 10, Failure::Error);
-        assert!(matches!(failed, Err(SimError::Solver(SolveError::Internal(_)))), "{:?}", failed.err());
+        let stages: Vec<usize> = r.stats.stiffness_stages.iter().map(|s| s.newton_iterations).collect();
+        assert!(!r.stats.converged && stages == [9, 1], "{stages:?}");
+        let failed = simulate_failing(&mesh, &mat, &at_limit, 9, Failure::Error);
+        let Err(SimError::Solver(NewtonError { error: SolveError::Internal(_), stats })) = failed else {
+            panic!("{:?}", failed.err())
+        };
+        assert_eq!(stats.iterations, 9);
         // Without stages (the default fabric): from the coarse start 7 iterations, from the
         // target 9. Failed after 5, the solve from the target is the plain one, and within 12
         // it has the 7 left.
