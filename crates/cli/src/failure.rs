@@ -53,3 +53,40 @@ pub fn printable(message: &str) -> String {
         .map(|c| if c.is_control() && c != '\n' && c != '\t' { c.escape_default().to_string() } else { c.to_string() })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use clothcast_mesh::MeshError;
+    use clothcast_mesh::sparse::SolveError;
+
+    fn inner() -> SolveError {
+        SolveError::Internal("INNER".into())
+    }
+
+    /// An error that wraps another is printed (as `main` does: with its chain, `{:#}`) with
+    /// the inner one's message once: an error whose message already holds the inner one
+    /// does not give it as its source too.
+    #[test]
+    fn a_wrapped_error_is_printed_once() {
+        let io = || std::io::Error::other("INNER");
+        let newton = clothcast_sim::newton::NewtonError { error: inner(), stats: Box::default() };
+        let cases: Vec<anyhow::Error> = vec![
+            clothcast_sim::SimError::Solver(newton).into(),
+            clothcast_field::FieldError::Solver(inner()).into(),
+            clothcast_flatten::FlattenError::Solver(inner()).into(),
+            clothcast_flatten::FlattenError::Patch {
+                patch: 3,
+                error: Box::new(clothcast_flatten::FlattenError::Solver(inner())),
+            }
+            .into(),
+            clothcast_layout::LayoutError::Solver(inner()).into(),
+            clothcast_layout::LayoutError::Remesh(MeshError::Io { path: "m.obj".into(), error: io() }).into(),
+            clothcast_pattern::PatternError::Io(io()).into(),
+            crate::config::ConfigError::Io { path: "c.toml".into(), source: io() }.into(),
+        ];
+        for e in cases {
+            let printed = format!("{e:#}");
+            assert_eq!(printed.matches("INNER").count(), 1, "{printed}");
+        }
+    }
+}

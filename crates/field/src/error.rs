@@ -19,5 +19,13 @@ pub enum FieldError {
     MissingDeformation,
     /// The sparse solver failed (internal).
     #[error("field solver failure: {0}")]
-    Solver(#[from] SolveError),
+    Solver(SolveError),
+}
+
+// By hand, not `#[from]` (which would make the inner error the source as well): the message
+// holds it, and printed with its chain it would come twice.
+impl From<SolveError> for FieldError {
+    fn from(e: SolveError) -> Self {
+        FieldError::Solver(e)
+    }
 }

@@ -27,7 +27,7 @@ pub enum FlattenError {
     },
     /// The sparse solver failed, even with the largest allowed regularisation.
     #[error("flattening solver failure: {0}")]
-    Solver(#[from] SolveError),
+    Solver(SolveError),
     /// The geometry is numerically impossible to flatten (non-finite values, a boundary curve
     /// whose tangents cannot be closed).
     #[error("degenerate patch: {reason}")]
@@ -36,11 +36,20 @@ pub enum FlattenError {
         reason: String,
     },
     /// Flattening one patch of a segmentation failed.
-    #[error("patch {patch}: {source}")]
+    #[error("patch {patch}: {error}")]
     Patch {
         /// The patch.
         patch: u32,
-        /// What went wrong.
-        source: Box<FlattenError>,
+        /// What went wrong (in the message, so not named `source`, which would make it the
+        /// error's source as well and print it twice with the chain).
+        error: Box<FlattenError>,
     },
+}
+
+// By hand, not `#[from]` (which would make the inner error the source as well): the message
+// holds it, and printed with its chain it would come twice.
+impl From<SolveError> for FlattenError {
+    fn from(e: SolveError) -> Self {
+        FlattenError::Solver(e)
+    }
 }

@@ -449,7 +449,7 @@ fn lay_piece(ctx: &PieceContext<'_>, p: usize, fs: &[FaceId]) -> Result<LaidPiec
     let seg_face = sub.face_to_parent.clone();
     let pm = sub.mesh;
     let piece = flatten_piece(&pm, &opts.bff, &opts.limits)
-        .map_err(|e| FlattenError::Patch { patch: p as u32, source: Box::new(e) })?;
+        .map_err(|e| FlattenError::Patch { patch: p as u32, error: Box::new(e) })?;
     let convex = piece.outline_repair == Some(OutlineRepair::Convex);
     let flat = piece.flattening;
     let outline = piece.outline;

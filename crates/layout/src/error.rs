@@ -30,8 +30,22 @@ pub enum LayoutError {
     Trace(String),
     /// Remeshing produced an invalid mesh (internal).
     #[error("remeshing produced an invalid mesh: {0}")]
-    Remesh(#[from] MeshError),
+    Remesh(MeshError),
     /// A sparse solve failed (internal).
     #[error("layout solver failure: {0}")]
-    Solver(#[from] SolveError),
+    Solver(SolveError),
+}
+
+// By hand, not `#[from]` (which would make the inner error the source as well): the message
+// holds it, and printed with its chain it would come twice.
+impl From<SolveError> for LayoutError {
+    fn from(e: SolveError) -> Self {
+        LayoutError::Solver(e)
+    }
+}
+
+impl From<MeshError> for LayoutError {
+    fn from(e: MeshError) -> Self {
+        LayoutError::Remesh(e)
+    }
 }

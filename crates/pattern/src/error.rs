@@ -222,7 +222,15 @@ pub enum PatternError {
     },
     /// Writing an output failed.
     #[error("write error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
+}
+
+// By hand, not `#[from]` (which would make the inner error the source as well): the message
+// holds it, and printed with its chain it would come twice.
+impl From<std::io::Error> for PatternError {
+    fn from(e: std::io::Error) -> Self {
+        PatternError::Io(e)
+    }
 }
 
 impl PatternError {

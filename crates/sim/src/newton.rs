@@ -511,17 +511,21 @@ impl std::fmt::Display for NewtonError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.stats.iterations {
             0 => write!(f, "{} (before the first Newton iteration)", self.error),
-            k => write!(
-                f,
-                "{} (in Newton iteration {k}, after {} factorizations)",
-                self.error, self.stats.factorizations
-            ),
+            // The factorizations count the failing one.
+            k => write!(f, "{} (Newton iteration {k}, factorization {})", self.error, self.stats.factorizations),
         }
     }
 }
 
 // The sparse error is part of the message, so it is not also given as the source.
 impl std::error::Error for NewtonError {}
+
+#[cfg(test)]
+thread_local! {
+    /// Test hook: when set, the factorizations of this Newton iteration fail (as an internal
+    /// error of the sparse layer would).
+    pub(crate) static FAIL_FACTORIZATION_IN: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+}
 
 /// Solve for equilibrium from `x0`. `progress` is called after every iteration.
 pub fn solve(
@@ -548,7 +552,11 @@ pub fn solve(
     // The fill-reducing ordering: AMD or nested dissection, whichever gives the smaller factor
     // (nested dissection wins on large meshes: kitten's factorization 0.30 → 0.21 s), or
     // nested dissection with a somewhat larger one when it can be split over two threads.
-    let failed = |error, stats: &SolveStats| NewtonError { error, stats: Box::new(stats.clone()) };
+    // Before the first iteration: the symbolic phase's time spent.
+    let failed = |error, stats: &SolveStats| NewtonError {
+        error,
+        stats: Box::new(SolveStats { symbolic_seconds: t.elapsed().as_secs_f64(), ..stats.clone() }),
+    };
     let ordering = sys.dof_ordering(opts.split_factorization).map_err(|e| failed(e, &stats))?;
     tracing::debug!(amd = ordering.amd_fill, nd = ?ordering.nd_fill, nested = ordering.nested, "vertex-graph factor sizes");
     let mut split = None;
@@ -716,6 +724,11 @@ pub fn solve(
                     let single = step_precision.single;
                     let tf = Instant::now();
                     let res = factor.refactor(&chol, sys.pattern(), &vals, single);
+                    #[cfg(test)]
+                    let res = match FAIL_FACTORIZATION_IN.get() {
+                        Some(k) if k == stats.iterations => Err(SolveError::Internal("injected by the test".into())),
+                        _ => res,
+                    };
                     let dt = tf.elapsed().as_secs_f64();
                     stats.factorizations += 1;
                     stats.double_factorizations += usize::from(!single);
