@@ -44,10 +44,14 @@ use std::time::Instant;
 /// When and how coarse the coarse start is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CoarseOptions {
-    /// Meshes with fewer faces are solved from the target directly: their solves are short,
-    /// and measured with a coarse start they were not reliably shorter (camelhead, 23k faces:
-    /// 77 iterations from the target, 85–107 from coarse starts of 1k–5k faces; spot, 23k
-    /// faces: 23 against 16–20).
+    /// Meshes with fewer faces are solved from the target directly. Filled to the top, spot
+    /// and camelhead (23k faces) are about as fast either way (2026-12-08: 1.31 → 1.19 s and
+    /// 3.40 → 3.25 s with the coarse start); filled to 0.05–0.45 m of 0.5 m (nine levels
+    /// each) they took 538 → 481 s and 198 → 97 s in all (12 of 18 solves faster, spot at
+    /// 0.25 m 43 → 82 s the worst; spot at 0.1 m 1913 fine iterations, above its default
+    /// limit of 1734, against 876 after 501 on a 5.8k-face level). Below 10k faces the coarse
+    /// start did not pay (torus, bunny, fertility filled to 0.1 m twice as slow, their solves
+    /// from it without the slack walls), so from 20k faces, not 10k.
     pub min_faces: usize,
     /// The simplified mesh has this many times fewer faces (at least 2); so has each further
     /// level of the cascade.
@@ -56,7 +60,7 @@ pub struct CoarseOptions {
 
 impl Default for CoarseOptions {
     fn default() -> Self {
-        Self { min_faces: 50_000, ratio: 4 }
+        Self { min_faces: 20_000, ratio: 4 }
     }
 }
 
