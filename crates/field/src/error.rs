@@ -22,10 +22,4 @@ pub enum FieldError {
     Solver(SolveError),
 }
 
-// By hand, not `#[from]` (which would make the inner error the source as well): the message
-// holds it, and printed with its chain it would come twice.
-impl From<SolveError> for FieldError {
-    fn from(e: SolveError) -> Self {
-        FieldError::Solver(e)
-    }
-}
+clothcast_mesh::wrap_error!(FieldError::Solver(SolveError));

@@ -46,10 +46,4 @@ pub enum FlattenError {
     },
 }
 
-// By hand, not `#[from]` (which would make the inner error the source as well): the message
-// holds it, and printed with its chain it would come twice.
-impl From<SolveError> for FlattenError {
-    fn from(e: SolveError) -> Self {
-        FlattenError::Solver(e)
-    }
-}
+clothcast_mesh::wrap_error!(FlattenError::Solver(SolveError));

@@ -36,16 +36,5 @@ pub enum LayoutError {
     Solver(SolveError),
 }
 
-// By hand, not `#[from]` (which would make the inner error the source as well): the message
-// holds it, and printed with its chain it would come twice.
-impl From<SolveError> for LayoutError {
-    fn from(e: SolveError) -> Self {
-        LayoutError::Solver(e)
-    }
-}
-
-impl From<MeshError> for LayoutError {
-    fn from(e: MeshError) -> Self {
-        LayoutError::Remesh(e)
-    }
-}
+clothcast_mesh::wrap_error!(LayoutError::Solver(SolveError));
+clothcast_mesh::wrap_error!(LayoutError::Remesh(MeshError));

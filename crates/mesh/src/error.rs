@@ -4,6 +4,22 @@ use crate::validate::Problem;
 use std::fmt;
 use std::path::PathBuf;
 
+/// `impl From<$inner> for $outer`, wrapping it in the tuple variant `$outer::$variant`: what
+/// thiserror's `#[from]` does, but without making the inner error the `source` too. Every
+/// error of the workspace that wraps another holds it in its message (`"…: {0}"`), and the
+/// CLI prints errors with their chain (`{:#}`), so with `#[from]` the inner message would be
+/// printed twice.
+#[macro_export]
+macro_rules! wrap_error {
+    ($outer:ident :: $variant:ident ( $inner:ty )) => {
+        impl From<$inner> for $outer {
+            fn from(e: $inner) -> Self {
+                $outer::$variant(e)
+            }
+        }
+    };
+}
+
 /// Everything that can go wrong reading, validating or editing a mesh. Every variant names the
 /// file, line or element involved.
 ///

@@ -225,13 +225,7 @@ pub enum PatternError {
     Io(std::io::Error),
 }
 
-// By hand, not `#[from]` (which would make the inner error the source as well): the message
-// holds it, and printed with its chain it would come twice.
-impl From<std::io::Error> for PatternError {
-    fn from(e: std::io::Error) -> Self {
-        PatternError::Io(e)
-    }
-}
+clothcast_mesh::wrap_error!(PatternError::Io(std::io::Error));
 
 impl PatternError {
     /// Whether the options are to blame (an option out of range, or options that ask for more

@@ -182,13 +182,7 @@ pub enum SimError {
     Solver(NewtonError),
 }
 
-// By hand, not `#[from]` (which would make the inner error the source as well): the message
-// holds it, and printed with its chain it would come twice.
-impl From<NewtonError> for SimError {
-    fn from(e: NewtonError) -> Self {
-        SimError::Solver(e)
-    }
-}
+clothcast_mesh::wrap_error!(SimError::Solver(NewtonError));
 
 /// Why a vertex on or behind a support cannot start in front of it ([`SimError::BehindSupport`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -953,10 +947,10 @@ mod tests {
     thread_local! {
         /// When set, the fine solve from the coarse start fails so in this iteration, when
         /// not converged by then.
-        static FAIL_FROM_COARSE_AFTER: Cell<Option<(usize, Failure)>> = const { Cell::new(None) };
+        static FAIL_FROM_COARSE_AT: Cell<Option<(usize, Failure)>> = const { Cell::new(None) };
     }
 
-    /// [`solve`], failed in its `k`th iteration when [`FAIL_FROM_COARSE_AFTER`] is set to
+    /// [`solve`], failed in its `k`th iteration when [`FAIL_FROM_COARSE_AT`] is set to
     /// `k` and the solve has not converged by then: stalled after it, or with the error of
     /// its factorization (injected by [`crate::newton::FAIL_FACTORIZATION_IN`], so the error
     /// and its statistics come from the solver's own path).
@@ -966,7 +960,7 @@ mod tests {
         opts: NewtonOptions,
         progress: &mut dyn FnMut(&IterationReport),
     ) -> Result<NewtonResult, NewtonError> {
-        match FAIL_FROM_COARSE_AFTER.get() {
+        match FAIL_FROM_COARSE_AT.get() {
             None => solve(sys, x, &opts, progress),
             Some((k, Failure::Stall)) => {
                 let mut r = solve(sys, x, &opts.at_most(k), progress)?;
@@ -984,8 +978,8 @@ mod tests {
         }
     }
 
-    /// `mesh` simulated with the fine solve from the coarse start failed `how` after `k`
-    /// iterations (the hook cleared after).
+    /// `mesh` simulated with the fine solve from the coarse start failed `how` in its `k`th
+    /// iteration (the hook cleared after).
     fn simulate_failing(
         mesh: &Mesh,
         mat: &dyn Material,
@@ -993,14 +987,14 @@ mod tests {
         k: usize,
         how: Failure,
     ) -> Result<SimResult, SimError> {
-        FAIL_FROM_COARSE_AFTER.set(Some((k, how)));
+        FAIL_FROM_COARSE_AT.set(Some((k, how)));
         let res = simulate(mesh, mat, sc, &mut |_| {});
-        FAIL_FROM_COARSE_AFTER.set(None);
+        FAIL_FROM_COARSE_AT.set(None);
         res
     }
 
-    /// `mesh` simulated with the fine solve from the coarse start failed `how` after 5
-    /// iterations: redone from the target (the coarse start not used, its 5 iterations
+    /// `mesh` simulated with the fine solve from the coarse start failed `how` in its 5th
+    /// iteration: redone from the target (the coarse start not used, its 5 iterations
     /// discarded).
     fn failed_from_coarse(mesh: &Mesh, mat: &dyn Material, sc: &Scenario, how: Failure) -> SimResult {
         let r = simulate_failing(mesh, mat, sc, 5, how).unwrap();
