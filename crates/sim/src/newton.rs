@@ -525,6 +525,9 @@ thread_local! {
     /// Test hook: when set, the factorizations of this Newton iteration fail (as an internal
     /// error of the sparse layer would).
     pub(crate) static FAIL_FACTORIZATION_IN: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+    /// Test hook: when set, the symbolic analysis of the one-thread factorization fails (as an
+    /// internal error of the sparse layer would), before the first Newton iteration.
+    pub(crate) static FAIL_SYMBOLIC: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Solve for equilibrium from `x0`. `progress` is called after every iteration.
@@ -578,8 +581,16 @@ pub fn solve(
         // Without its split, nested dissection chosen for it (with the larger factor) gives
         // way to AMD.
         None => {
-            CholeskySolver::with_ordering(sys.pattern(), Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)))
-                .map_err(|e| failed(e, &stats))?
+            let res = CholeskySolver::with_ordering(
+                sys.pattern(),
+                Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)),
+            );
+            #[cfg(test)]
+            let res = match FAIL_SYMBOLIC.get() {
+                true => Err(SolveError::Internal("injected by the test".into())),
+                false => res,
+            };
+            res.map_err(|e| failed(e, &stats))?
         }
     };
     tracing::debug!(len = chol.factor_len(), "factor size");

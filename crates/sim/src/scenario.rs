@@ -1072,6 +1072,29 @@ mod tests {
         }
     }
 
+    /// The symbolic analysis fails (injected by [`crate::newton::FAIL_SYMBOLIC`]): the
+    /// simulation's error says so, before the first Newton iteration, and carries the time
+    /// the symbolic phase spent, with no iteration or factorization counted.
+    #[test]
+    fn a_failed_symbolic_analysis_is_an_error_before_the_first_iteration() {
+        let mesh = shapes::icosphere(3, 0.2);
+        let mat = WrinklingStVenantKirchhoff::from_young_poisson(5e4, 0.3);
+        let sc = Scenario { coarse: None, ..Default::default() };
+        crate::newton::FAIL_SYMBOLIC.set(true);
+        let failed = simulate(&mesh, &mat, &sc, &mut |_| panic!("no iteration is reported"));
+        crate::newton::FAIL_SYMBOLIC.set(false);
+        let Err(e @ SimError::Solver(NewtonError { error: SolveError::Internal(_), .. })) = failed else {
+            panic!("{:?}", failed.err())
+        };
+        let message = e.to_string();
+        assert!(message.ends_with("injected by the test (before the first Newton iteration)"), "{message}");
+        let SimError::Solver(NewtonError { stats, .. }) = e else { unreachable!() };
+        assert!(stats.iterations == 0 && stats.factorizations == 0, "{stats:?}");
+        assert!(stats.symbolic_seconds > 0.0 && stats.dofs > 0 && stats.hessian_nnz > 0, "{stats:?}");
+        // Without the hook the same simulation converges.
+        assert!(simulate(&mesh, &mat, &sc, &mut |_| {}).unwrap().stats.converged);
+    }
+
     /// Two supports facing each other closer than the clearance a lifted vertex is given: each
     /// lift puts the vertex behind the other support, and after the passes it is refused as
     /// pinched, named with the support it is behind.
