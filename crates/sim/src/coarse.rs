@@ -51,7 +51,12 @@ pub struct CoarseOptions {
     /// 0.25 m 43 → 82 s the worst; spot at 0.1 m 1913 fine iterations, above its default
     /// limit of 1734, against 876 after 501 on a 5.8k-face level). Below 10k faces the coarse
     /// start did not pay (torus, bunny, fertility filled to 0.1 m twice as slow, their solves
-    /// from it without the slack walls), so from 20k faces, not 10k.
+    /// from it without the slack walls), so from 20k faces, not 10k. On six meshes of
+    /// 12k–25k faces simplified from spot, kitten and bunny_hr (2026-12-08, thirty-seventh
+    /// session), 18 partial fills took 598 s from the target and 639 s from the coarse start
+    /// with the slack walls in its fine solve (1005 s without them, as built before); filled to
+    /// the top the 25k-face ones gained (kitten's 2.25 → 1.56 s), the 12k–15k ones were within
+    /// the day's spread, so the threshold stays at 20k.
     pub min_faces: usize,
     /// The simplified mesh has this many times fewer faces (at least 2); so has each further
     /// level of the cascade.

@@ -553,14 +553,12 @@ fn solve_from_coarse(
     progress: &mut dyn FnMut(&IterationReport),
 ) -> Result<NewtonResult, NewtonError> {
     let t = Instant::now();
-    // Without slack walls from the coarse start (no gain on kitten and bunny_hr filled to a
-    // fifth: crate::walls gives the figures). Solved again from the target, below, it has them
-    // as configured.
-    let fine = NewtonOptions { slack_walls: false, ..opts.clone() };
+    // With the slack walls as configured, as from the target (the coarse levels have none):
+    // crate::walls gives the figures.
     #[cfg(not(test))]
-    let res = solve(sys, x, &fine, progress);
+    let res = solve(sys, x, opts, progress);
     #[cfg(test)]
-    let res = tests::solve_or_fail(sys, x, fine, progress);
+    let res = tests::solve_or_fail(sys, x, opts.clone(), progress);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;

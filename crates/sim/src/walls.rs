@@ -32,12 +32,14 @@
 //! Over twelve partial fills at 0.5 m (torus, bunny, fertility, spot filled to 0.1, 0.25 and
 //! 0.35 m): 15844 → 10268 iterations, 49% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)
-//! have none, and the coarse start's solves have none: its levels ([`crate::coarse`]) and the
-//! fine solve from it (`scenario::solve_from_coarse`: kitten filled to a fifth had not
-//! converged after 65 minutes with them, against 17 without; with the gap limit it no longer
-//! cycles, but it had not converged after 3098 fine iterations, against 3514 in all without
-//! walls, nor bunny_hr after 7108, against 5548). A mold whose coarse start is not used is
-//! solved from the target with them, as a later stiffness stage is from the stage before.
+//! have none, and the coarse start's levels ([`crate::coarse`]) have none. The fine solve from
+//! the coarse start has them since 2026-12-08 (thirty-seventh session; before, it had none, as
+//! the levels): kitten filled to a fifth took 1316 fine iterations with them in its fine solve
+//! only, against 3082 without (the thirtieth session, with them also on the levels, had stopped
+//! it unconverged after 3098), but bunny_hr more: not converged after 6500, against 5980
+//! without (as built in the thirty-first session). On six meshes of 12k–25k faces simplified
+//! from spot, kitten and bunny_hr, filled to 0.1, 0.2 and 0.3 m: 598 s from the target, 1005 s
+//! from the coarse start without them, 639 s with them (SIMULATION_LOG, thirty-seventh session).
 
 use clothcast_mesh::sparse::SymmetricPattern;
 
