@@ -54,9 +54,11 @@ pub struct CoarseOptions {
     /// from it without the slack walls), so from 20k faces, not 10k. On six meshes of
     /// 12k–25k faces simplified from spot, kitten and bunny_hr (2026-12-08, thirty-seventh
     /// session), 18 partial fills took 598 s from the target and 639 s from the coarse start
-    /// with the slack walls in its fine solve (1005 s without them, as built before); filled to
-    /// the top the 25k-face ones gained (kitten's 2.25 → 1.56 s), the 12k–15k ones were within
-    /// the day's spread, so the threshold stays at 20k.
+    /// with the slack walls in its fine solve (1005 s without them, as built before): 300
+    /// against 312 s on the 12k–15k ones, 339 against 287 s on the two 25k ones (which the
+    /// threshold gives it), where filled to the top it gained (kitten's 2.25 → 1.56 s,
+    /// bunny_hr's 1.84 → 1.76 s). With spot and camelhead's gains above, the threshold stays
+    /// at 20k.
     pub min_faces: usize,
     /// The simplified mesh has this many times fewer faces (at least 2); so has each further
     /// level of the cascade.

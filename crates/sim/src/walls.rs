@@ -33,7 +33,7 @@
 //! 0.35 m): 15844 → 10268 iterations, 49% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)
 //! have none, and the coarse start's levels ([`crate::coarse`]) have none. The fine solve from
-//! the coarse start has them since 2026-12-08 (thirty-seventh session; before, it had none, as
+//! the coarse start has them since the thirty-seventh session (2026-12-08; before, it had none, as
 //! the levels): kitten filled to a fifth took 1316 fine iterations with them in its fine solve
 //! only, against 3082 without (the thirtieth session, with them also on the levels, had stopped
 //! it unconverged after 3098), but bunny_hr more: 8276, against 5980 without (as built in the

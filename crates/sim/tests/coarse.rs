@@ -185,7 +185,7 @@ fn creeping_fill(y: f64, level: f64, coarse: Option<CoarseOptions>) -> SimResult
 const HALF: CoarseOptions = CoarseOptions { min_faces: 1000, ratio: 2 };
 
 /// The coarse start's levels are solved without the slack walls (`clothcast_sim::walls`), the
-/// fine solve from them with the walls, as from the target: filled to 0.04 m, the level creeps
+/// fine solve from the coarse start with the walls, as from the target: filled to 0.04 m, the level creeps
 /// past [`clothcast_sim::newton::CREEP_AFTER`] (462 iterations) with no wall, and so does the
 /// fine solve from it (1258; 795 without walls on this small torus, where the walls lose; on
 /// kitten filled to a fifth they took 3082 → 1316, see `clothcast_sim::walls`), with walls in
