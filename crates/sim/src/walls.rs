@@ -33,13 +33,14 @@
 //! 0.35 m): 15844 → 10268 iterations, 49% fewer filled to 0.1 m (SIMULATION_LOG, 2026-12-07).
 //! Materials without a slack state ([`crate::material::Material::slack_wall_stiffness`] `None`)
 //! have none, and the coarse start's levels ([`crate::coarse`]) have none. The fine solve from
-//! the coarse start has them since the thirty-seventh session (2026-12-08; before, it had none, as
-//! the levels): kitten filled to a fifth took 1316 fine iterations with them in its fine solve
-//! only, against 3082 without (the thirtieth session, with them also on the levels, had stopped
-//! it unconverged after 3098), but bunny_hr more: 8276, against 5980 without (911 against 1418 s
-//! the same day). On six meshes of 12k–25k faces simplified
-//! from spot, kitten and bunny_hr, filled to 0.1, 0.2 and 0.3 m: 598 s from the target, 1005 s
-//! from the coarse start without them, 639 s with them (SIMULATION_LOG, thirty-seventh session).
+//! the coarse start has them since the thirty-seventh session (2026-12-08; before, it had none,
+//! as the levels): kitten filled to a fifth took 1316 fine iterations with them in its fine
+//! solve only, against 3082 without (494 against 1099 s the same day; the thirtieth session,
+//! with them also on the levels, had stopped it unconverged after 3098), but bunny_hr more:
+//! 8276, against 5980 without (1418 against 911 s the same day). On six meshes of 12k–25k faces
+//! simplified from spot, kitten and bunny_hr, filled to 0.1, 0.2 and 0.3 m: 598 s from the
+//! target, 1005 s from the coarse start without them, 639 s with them (SIMULATION_LOG,
+//! thirty-seventh session).
 
 use clothcast_mesh::sparse::SymmetricPattern;
 
