@@ -530,6 +530,12 @@ thread_local! {
     pub(crate) static FAIL_SYMBOLIC: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
+/// `res`, or the error a test hook injects when `fail` (an internal error of the sparse layer).
+#[cfg(test)]
+fn injected<T>(res: Result<T, SolveError>, fail: bool) -> Result<T, SolveError> {
+    if fail { Err(SolveError::Internal("injected by the test".into())) } else { res }
+}
+
 /// Solve for equilibrium from `x0`. `progress` is called after every iteration.
 pub fn solve(
     sys: &mut System<'_>,
@@ -586,10 +592,7 @@ pub fn solve(
                 Some(ordering.amd_dofs.as_ref().unwrap_or(&ordering.dofs)),
             );
             #[cfg(test)]
-            let res = match FAIL_SYMBOLIC.get() {
-                true => Err(SolveError::Internal("injected by the test".into())),
-                false => res,
-            };
+            let res = injected(res, FAIL_SYMBOLIC.get());
             res.map_err(|e| failed(e, &stats))?
         }
     };
@@ -736,10 +739,7 @@ pub fn solve(
                     let tf = Instant::now();
                     let res = factor.refactor(&chol, sys.pattern(), &vals, single);
                     #[cfg(test)]
-                    let res = match FAIL_FACTORIZATION_IN.get() {
-                        Some(k) if k == stats.iterations => Err(SolveError::Internal("injected by the test".into())),
-                        _ => res,
-                    };
+                    let res = injected(res, FAIL_FACTORIZATION_IN.get() == Some(stats.iterations));
                     let dt = tf.elapsed().as_secs_f64();
                     stats.factorizations += 1;
                     stats.double_factorizations += usize::from(!single);

@@ -558,7 +558,7 @@ fn solve_from_coarse(
     #[cfg(not(test))]
     let res = solve(sys, x, opts, progress);
     #[cfg(test)]
-    let res = tests::solve_or_fail(sys, x, opts.clone(), progress);
+    let res = tests::solve_or_fail(sys, x, opts, progress);
     let (why, spent) = match &res {
         Ok(r) if r.termination == Termination::Converged => {
             st.used = true;
@@ -955,11 +955,11 @@ mod tests {
     pub(super) fn solve_or_fail(
         sys: &mut System<'_>,
         x: Vec<Vec3>,
-        opts: NewtonOptions,
+        opts: &NewtonOptions,
         progress: &mut dyn FnMut(&IterationReport),
     ) -> Result<NewtonResult, NewtonError> {
         match FAIL_FROM_COARSE_AT.get() {
-            None => solve(sys, x, &opts, progress),
+            None => solve(sys, x, opts, progress),
             Some((k, Failure::Stall)) => {
                 let mut r = solve(sys, x, &opts.at_most(k), progress)?;
                 if r.termination == Termination::MaxIterations {
@@ -969,7 +969,7 @@ mod tests {
             }
             Some((k, Failure::Error)) => {
                 crate::newton::FAIL_FACTORIZATION_IN.set(Some(k));
-                let res = solve(sys, x, &opts, progress);
+                let res = solve(sys, x, opts, progress);
                 crate::newton::FAIL_FACTORIZATION_IN.set(None);
                 res
             }
