@@ -44,21 +44,14 @@ use std::time::Instant;
 /// When and how coarse the coarse start is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CoarseOptions {
-    /// Meshes with fewer faces are solved from the target directly. Filled to the top, spot
-    /// and camelhead (23k faces) are about as fast either way (2026-12-08: 1.31 → 1.19 s and
-    /// 3.40 → 3.25 s with the coarse start); filled to 0.05–0.45 m of 0.5 m (nine levels
-    /// each) they took 538 → 481 s and 198 → 97 s in all (12 of 18 solves faster, spot at
-    /// 0.25 m 43 → 82 s the worst; spot at 0.1 m 1913 fine iterations, above its default
-    /// limit of 1734, against 876 after 501 on a 5.8k-face level). Below 10k faces the coarse
-    /// start did not pay (torus, bunny, fertility filled to 0.1 m twice as slow, their solves
-    /// from it without the slack walls), so from 20k faces, not 10k. On six meshes of
-    /// 12k–25k faces simplified from spot, kitten and bunny_hr (2026-12-08, thirty-seventh
-    /// session), 18 partial fills took 598 s from the target and 639 s from the coarse start
-    /// with the slack walls in its fine solve (1005 s without them, as built before): 300
-    /// against 312 s on the 12k–15k ones, 339 against 287 s on the two 25k ones (which the
-    /// threshold gives it), where filled to the top it gained (kitten's 2.25 → 1.56 s,
-    /// bunny_hr's 1.84 → 1.76 s). With spot and camelhead's gains above, the threshold stays
-    /// at 20k.
+    /// Meshes with fewer faces are solved from the target directly. 20k: filled to 0.05–0.45 m
+    /// of 0.5 m, spot and camelhead (23k faces) took 538 → 481 s and 198 → 97 s from the
+    /// coarse start (2026-12-08), filled to the top about as fast; below 10k faces (torus,
+    /// bunny, fertility) it did not pay; between 12k and 25k faces (six meshes simplified from
+    /// spot, kitten and bunny_hr) it was 7% slower than the target on the partial fills (639
+    /// against 598 s over 18, the 25k ones 339 against 287 s) and gained filled to the top at
+    /// 25k. The figures are in docs/SIMULATION_LOG.md (thirty-sixth and thirty-seventh
+    /// sessions).
     pub min_faces: usize,
     /// The simplified mesh has this many times fewer faces (at least 2); so has each further
     /// level of the cascade.
